@@ -1,0 +1,188 @@
+"""File formats: OpenEXR (named float channels), PNG (8/16-bit), tidy CSV, JSON.
+
+Every writer is atomic: it writes a temporary file next to the target and renames it,
+so a crash never leaves a half-written output that Snakemake or a reader would trust.
+Every reader names the file in its error when the file is missing or unreadable.
+
+Conventions: EXR holds linear float data, one 2-D ``(H, W)`` array per named channel
+(e.g. ``P.x``, ``T.00``); PNG holds display-referred data as ``(H, W)`` or ``(H, W, C)``
+unsigned integers (C = 1..4: grey, grey+alpha, RGB, RGBA).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+import pandas as pd
+import png
+
+PathLike = str | os.PathLike
+
+
+@contextlib.contextmanager
+def atomic_path(path: PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+
+    The temporary name keeps the suffix so libraries that pick a format from the
+    extension still work. On any exception the temporary file is removed.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, target)
+    finally:
+        tmp_path.unlink(missing_ok=True)
+
+
+def _require_file(path: PathLike, what: str) -> Path:
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{what} file {p} does not exist")
+    return p
+
+
+def write_exr(path: PathLike, channels: Mapping[str, np.ndarray], half: bool = False) -> None:
+    """Write named channels to a scanline, ZIP-compressed OpenEXR file.
+
+    Args:
+        path: output ``.exr`` path.
+        channels: name -> ``(H, W)`` array; all the same shape. float16 arrays are stored
+            as half, everything else as float32 (or all as half with ``half=True``).
+    """
+    if not channels:
+        raise ValueError(f"write_exr({path}): no channels given")
+    shape = None
+    data = {}
+    for name, arr in channels.items():
+        a = np.asarray(arr)
+        if a.ndim != 2:
+            raise ValueError(f"write_exr({path}): channel {name!r} has shape {a.shape}, expected (H, W)")
+        if shape is None:
+            shape = a.shape
+        elif a.shape != shape:
+            raise ValueError(f"write_exr({path}): channel {name!r} has shape {a.shape}, others {shape}")
+        dtype = np.float16 if half or a.dtype == np.float16 else np.float32
+        data[name] = np.ascontiguousarray(a, dtype=dtype)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, data) as f:
+            f.write(str(tmp))
+
+
+def read_exr(path: PathLike, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """Read channels of an OpenEXR file.
+
+    Args:
+        path: ``.exr`` file.
+        names: channels to read (all if ``None``); a missing one raises ``KeyError``
+            naming the file and the channels it has.
+
+    Returns:
+        name -> ``(H, W)`` array (float32 or float16 as stored), in file order.
+    """
+    p = _require_file(path, "EXR")
+    try:
+        with OpenEXR.File(str(p), separate_channels=True) as f:
+            # Copy inside the block: the pixel buffers are released when the file closes.
+            stored = {k: np.array(v.pixels) for k, v in f.channels().items()}
+    except Exception as err:  # OpenEXR raises plain RuntimeError/ValueError for corrupt data
+        raise OSError(f"cannot read EXR file {p}: {err}") from err
+    if names is None:
+        return stored
+    missing = [n for n in names if n not in stored]
+    if missing:
+        raise KeyError(f"EXR file {p} lacks channels {missing}; it has {sorted(stored)}")
+    return {n: stored[n] for n in names}
+
+
+def write_png(path: PathLike, image: np.ndarray) -> None:
+    """Write a uint8 or uint16 image, ``(H, W)`` or ``(H, W, C)`` with C in 1..4, as PNG."""
+    img = np.asarray(image)
+    if img.dtype not in (np.uint8, np.uint16):
+        raise TypeError(f"write_png({path}): dtype {img.dtype}, expected uint8 or uint16")
+    if img.ndim == 2:
+        img = img[..., None]
+    if img.ndim != 3 or not 1 <= img.shape[2] <= 4:
+        raise ValueError(f"write_png({path}): shape {image.shape}, expected (H, W) or (H, W, 1..4)")
+    h, w, c = img.shape
+    writer = png.Writer(
+        width=w, height=h, greyscale=c <= 2, alpha=c in (2, 4), bitdepth=8 * img.dtype.itemsize
+    )
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        writer.write(f, img.reshape(h, w * c))
+
+
+def read_png(path: PathLike) -> np.ndarray:
+    """Read a PNG as ``(H, W, C)`` uint8 or uint16 (palette images are expanded)."""
+    p = _require_file(path, "PNG")
+    try:
+        w, h, rows, info = png.Reader(filename=str(p)).asDirect()
+        data = np.vstack([np.asarray(r) for r in rows])
+    except png.Error as err:
+        raise OSError(f"cannot read PNG file {p}: {err}") from err
+    dtype = np.uint16 if info["bitdepth"] > 8 else np.uint8
+    return data.astype(dtype).reshape(h, w, info["planes"])
+
+
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """Quantise values in [0, 1] (clipped) to uint8 with rounding."""
+    return np.round(np.clip(image, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def write_csv(path: PathLike, frame: pd.DataFrame) -> None:
+    """Write a data frame as CSV without the index."""
+    with atomic_path(path) as tmp:
+        frame.to_csv(tmp, index=False)
+
+
+def read_csv(path: PathLike, required: Sequence[str] = ()) -> pd.DataFrame:
+    """Read a CSV and check it has the ``required`` columns."""
+    p = _require_file(path, "CSV")
+    try:
+        frame = pd.read_csv(p)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise OSError(f"cannot parse CSV file {p}: {err}") from err
+    missing = [c for c in required if c not in frame.columns]
+    if missing:
+        raise ValueError(f"CSV file {p} lacks columns {missing}; it has {list(frame.columns)}")
+    return frame
+
+
+def write_json(path: PathLike, obj: object) -> None:
+    """Write JSON (sorted keys, indented) atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
+
+
+def read_json(path: PathLike) -> object:
+    p = _require_file(path, "JSON")
+    try:
+        return json.loads(p.read_text())
+    except json.JSONDecodeError as err:
+        raise OSError(f"cannot parse JSON file {p}: {err}") from err
+
+
+def save_npz(path: PathLike, **arrays: np.ndarray) -> None:
+    """Save arrays to an uncompressed ``.npz`` atomically."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)
+
+
+def load_npz(path: PathLike) -> dict[str, np.ndarray]:
+    p = _require_file(path, "NPZ")
+    try:
+        with np.load(p) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError) as err:
+        raise OSError(f"cannot read NPZ file {p}: {err}") from err

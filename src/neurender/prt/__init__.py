@@ -1,0 +1,1 @@
+"""DeepPRT (Hong et al.): geometry images, deformations, ray-traced SH transfer."""

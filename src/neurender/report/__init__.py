@@ -1,0 +1,131 @@
+"""Self-contained HTML report: one section per method, our measurements beside the papers'.
+
+The report only shows what the pipeline measured (tidy CSV tables and PNG figures that
+stages wrote under ``results/<method>/``) and the published numbers in
+``paper_numbers.csv`` (each row cites its table or section). A method whose stage has not
+produced anything says so. Figures are embedded as data URIs so the file opens from disk.
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import datetime
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+
+import jinja2
+import pandas as pd
+
+from neurender import io
+
+TIDY_COLUMNS = ("method", "dataset", "model", "split", "metric", "value")
+
+
+@dataclasses.dataclass(frozen=True)
+class Section:
+    key: str  # the method's folder under results/ and its value in the ``method`` column
+    title: str
+    paper: str  # the source the published numbers come from
+
+
+SECTIONS = (
+    Section("prt", "DeepPRT: deep precomputed radiance transfer for deformable objects", "deepprt.txt"),
+    Section("ndr", "NDR: neural direct-illumination renderer", "ndr-neural-direct-illumination.txt"),
+    Section("metaballs", "Image-space metaballs (pix2pix)", "image-space-metaballs.txt"),
+    Section("simplification", "Appearance-driven simplification", "appearance-driven-simplification.txt"),
+)
+
+
+def paper_numbers() -> pd.DataFrame:
+    """Published numbers: columns ``method, source, setting, model, metric, value, note``."""
+    with resources.files(__package__).joinpath("paper_numbers.csv").open() as f:
+        return pd.read_csv(f, keep_default_na=False)
+
+
+def _method_of(path: Path) -> str | None:
+    keys = {s.key for s in SECTIONS}
+    return next((part for part in path.parts if part in keys), None)
+
+
+def _format_value(v: object) -> str:
+    if isinstance(v, float):
+        if v != v:  # NaN
+            return "&ndash;"
+        return f"{v:.4g}" if abs(v) < 1e5 else f"{v:,.0f}"
+    return str(v)
+
+
+def _table_html(frame: pd.DataFrame) -> str:
+    return frame.to_html(index=False, border=0, classes="table", formatters=None, float_format=None,
+                         na_rep="&ndash;", escape=False, justify="left").replace(
+        "<td>nan</td>", "<td>&ndash;</td>")
+
+
+def _render_table(frame: pd.DataFrame) -> str:
+    """A tidy metric table is pivoted (one column per metric); anything else is shown as is."""
+    if set(TIDY_COLUMNS) <= set(frame.columns):
+        index = [c for c in frame.columns if c not in ("method", "metric", "value")]
+        # Metrics with one value per frame are averaged; the CSV keeps every row.
+        wide = frame.pivot_table(index=index, columns="metric", values="value", aggfunc="mean", sort=False)
+        frame = wide.reset_index()
+        frame.columns.name = None
+    return _table_html(frame.map(_format_value))
+
+
+def _embed_png(path: Path) -> str:
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def build_report(
+    tables: Sequence[str | Path],
+    figures: Sequence[str | Path],
+    output: str | Path,
+    title: str = "neurender report",
+    run_info: dict[str, str] | None = None,
+) -> None:
+    """Write the HTML report.
+
+    Args:
+        tables: CSV files under ``results/<method>/``; tidy metric tables (columns
+            ``method, dataset, model, split, metric, value``) are pivoted to one column
+            per metric, other tables (targets, timings) are shown as they are.
+        figures: PNG files under ``results/<method>/``; the file stem is the caption.
+        output: the ``.html`` file.
+        run_info: key -> value pairs shown at the top (config file, seed, ...).
+    """
+    published = paper_numbers()
+    sections = []
+    for section in SECTIONS:
+        own_tables = [Path(t) for t in tables if _method_of(Path(t)) == section.key]
+        own_figures = [Path(f) for f in figures if _method_of(Path(f)) == section.key]
+        paper = published[published["method"] == section.key].drop(columns="method")
+        sections.append(
+            {
+                "key": section.key,
+                "title": section.title,
+                "source": section.paper,
+                "ran": bool(own_tables or own_figures),
+                "tables": [
+                    {"caption": t.stem.replace("_", " "), "path": str(t), "html": _render_table(io.read_csv(t))}
+                    for t in own_tables
+                ],
+                "figures": [
+                    {"caption": f.stem.replace("_", " "), "src": _embed_png(f)} for f in own_figures
+                ],
+                "paper": _table_html(paper.map(_format_value)) if len(paper) else "",
+            }
+        )
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("neurender.report", "templates"),
+        autoescape=jinja2.select_autoescape(default=True),
+    )
+    html = env.get_template("report.html.j2").render(
+        title=title,
+        sections=sections,
+        run_info=run_info or {},
+        generated=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+    )
+    with io.atomic_path(output) as tmp:
+        tmp.write_text(html, encoding="utf-8")

@@ -1,0 +1,84 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from neurender import io
+
+
+def test_exr_round_trip_named_channels(tmp_path):
+    rng = np.random.default_rng(0)
+    chans = {f"T.{i:02d}": rng.normal(size=(7, 9)).astype(np.float32) for i in range(16)}
+    chans["P.x"] = rng.normal(size=(7, 9)).astype(np.float32)
+    io.write_exr(tmp_path / "a.exr", chans)
+    back = io.read_exr(tmp_path / "a.exr")
+    assert set(back) == set(chans)  # all 17 channels survive (not just 4)
+    for k, v in chans.items():
+        np.testing.assert_array_equal(back[k], v)
+    sub = io.read_exr(tmp_path / "a.exr", ["P.x"])
+    assert list(sub) == ["P.x"]
+
+
+def test_exr_half(tmp_path):
+    a = np.linspace(0, 1, 12, dtype=np.float32).reshape(3, 4)
+    io.write_exr(tmp_path / "h.exr", {"Y": a}, half=True)
+    back = io.read_exr(tmp_path / "h.exr")["Y"]
+    assert back.dtype == np.float16
+    np.testing.assert_allclose(back, a, atol=1e-3)
+
+
+def test_exr_errors_name_the_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.exr"):
+        io.read_exr(tmp_path / "nope.exr")
+    bad = tmp_path / "bad.exr"
+    bad.write_bytes(b"not an exr at all")
+    with pytest.raises(OSError, match="bad.exr"):
+        io.read_exr(bad)
+    io.write_exr(tmp_path / "c.exr", {"R": np.zeros((2, 2))})
+    with pytest.raises(KeyError, match="lacks channels"):
+        io.read_exr(tmp_path / "c.exr", ["G"])
+    with pytest.raises(ValueError, match="expected \\(H, W\\)"):
+        io.write_exr(tmp_path / "d.exr", {"R": np.zeros((2, 2, 3))})
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+def test_png_round_trip(tmp_path, dtype, channels):
+    rng = np.random.default_rng(channels)
+    img = rng.integers(0, np.iinfo(dtype).max, size=(5, 6, channels), endpoint=True).astype(dtype)
+    io.write_png(tmp_path / "a.png", img)
+    back = io.read_png(tmp_path / "a.png")
+    assert back.dtype == dtype
+    np.testing.assert_array_equal(back, img)
+
+
+def test_png_errors(tmp_path):
+    with pytest.raises(TypeError, match="uint8 or uint16"):
+        io.write_png(tmp_path / "a.png", np.zeros((2, 2), np.float32))
+    (tmp_path / "bad.png").write_bytes(b"garbage")
+    with pytest.raises(OSError, match="bad.png"):
+        io.read_png(tmp_path / "bad.png")
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.csv"
+    with pytest.raises(RuntimeError):
+        with io.atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_csv_round_trip_and_required_columns(tmp_path):
+    df = pd.DataFrame({"method": ["prt"], "metric": ["ssim"], "value": [0.9]})
+    io.write_csv(tmp_path / "m.csv", df)
+    pd.testing.assert_frame_equal(io.read_csv(tmp_path / "m.csv", ["metric"]), df)
+    with pytest.raises(ValueError, match="lacks columns \\['split'\\]"):
+        io.read_csv(tmp_path / "m.csv", ["split"])
+    with pytest.raises(FileNotFoundError, match="x.csv"):
+        io.read_csv(tmp_path / "x.csv")
+
+
+def test_exr_mixed_precision(tmp_path):
+    io.write_exr(tmp_path / "m.exr", {"P.x": np.ones((2, 3)), "T.00": np.ones((2, 3), np.float16)})
+    back = io.read_exr(tmp_path / "m.exr")
+    assert back["P.x"].dtype == np.float32 and back["T.00"].dtype == np.float16

@@ -1,0 +1,29 @@
+import numpy as np
+import pandas as pd
+
+from neurender import io, report
+
+
+def test_report_shows_measurements_and_marks_unrun_sections(tmp_path):
+    res = tmp_path / "results" / "prt"
+    df = pd.DataFrame(
+        {
+            "method": ["prt"] * 2, "dataset": ["head"] * 2, "model": ["DeepPRT"] * 2,
+            "split": ["test"] * 2, "metric": ["ssim", "ssim"], "value": [0.5, 0.7],
+        }
+    )
+    io.write_csv(res / "metrics.csv", df)
+    io.write_png(res / "figures" / "example.png", np.full((4, 4, 3), 255, np.uint8))
+    out = tmp_path / "report.html"
+    report.build_report([res / "metrics.csv"], [res / "figures" / "example.png"], out)
+    html = out.read_text()
+    assert "0.6" in html  # the mean of the two frames, not invented
+    assert "data:image/png;base64," in html
+    assert html.count("has not been run") == 3  # ndr, metaballs, simplification
+    assert "44.47" in html  # the paper's compression ratio stands beside ours
+
+
+def test_paper_numbers_are_tidy():
+    p = report.paper_numbers()
+    assert {"method", "source", "metric", "value"} <= set(p.columns)
+    assert set(p.method) <= {s.key for s in report.SECTIONS}

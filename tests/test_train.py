@@ -1,0 +1,94 @@
+import pandas as pd
+import pytest
+import torch
+from torch.utils.data import TensorDataset
+
+from neurender import train
+
+
+def _problem():
+    g = torch.Generator().manual_seed(0)
+    x = torch.randn(40, 3, generator=g)
+    y = x @ torch.tensor([[1.0], [-2.0], [0.5]]) + 0.3
+    return TensorDataset(x[:32], y[:32]), TensorDataset(x[32:], y[32:])
+
+
+def _model():
+    torch.manual_seed(0)
+    return torch.nn.Sequential(torch.nn.Linear(3, 8), torch.nn.Dropout(0.1), torch.nn.Linear(8, 1))
+
+
+def _loss(model, batch):
+    x, y = batch
+    loss = torch.nn.functional.mse_loss(model(x), y)
+    return loss, {"mae": float((model(x) - y).detach().abs().mean())}
+
+
+def _cfg(epochs):
+    return train.TrainConfig(epochs=epochs, batch_size=8, lr=0.05, seed=3, device="cpu")
+
+
+def test_training_reduces_loss_and_writes_tidy_log(tmp_path):
+    train_set, val_set = _problem()
+    hist = train.fit(_model(), train_set, val_set, _loss, _cfg(8), tmp_path / "m.pt", tmp_path / "log.csv")
+    log = pd.read_csv(tmp_path / "log.csv")
+    assert list(log.columns) == ["epoch", "split", "metric", "value"]
+    val = hist[(hist.split == "val") & (hist.metric == "loss")].value.to_numpy()
+    assert val[-1] < 0.2 * val[0]
+    ckpt = train.load_checkpoint(tmp_path / "m.pt")
+    assert ckpt["best_val"] == pytest.approx(val.min())
+    assert not train.resume_path_for(tmp_path / "m.pt").exists()
+
+
+def test_resume_after_interruption_is_identical(tmp_path):
+    train_set, val_set = _problem()
+    full = _model()
+    train.fit(full, train_set, val_set, _loss, _cfg(4), tmp_path / "full.pt", tmp_path / "full.csv")
+
+    # interrupted run: 2 epochs done, the resume file is what an interruption leaves behind
+    part = _model()
+    train.fit(part, train_set, val_set, _loss, _cfg(2), tmp_path / "tmp.pt", tmp_path / "tmp.csv")
+    state = torch.load(tmp_path / "tmp.pt", weights_only=False)
+    assert len(state["history"]) == 2
+    # Recreate the resume state an interrupted 4-epoch run would hold after epoch 2.
+    partial = _model()
+    cfg = _cfg(4)
+    calls = {"n": 0}
+
+    def interrupting_loss(model, batch):
+        calls["n"] += 1
+        if calls["n"] > 2 * 4 + 1 * 1:  # 4 train steps/epoch + 1 val batch per epoch, 2 epochs
+            raise KeyboardInterrupt
+        return _loss(model, batch)
+
+    with pytest.raises(KeyboardInterrupt):
+        train.fit(partial, train_set, val_set, interrupting_loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+    assert train.resume_path_for(tmp_path / "r.pt").exists()
+    resumed = _model()
+    train.fit(resumed, train_set, val_set, _loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+    a = torch.load(tmp_path / "full.pt", weights_only=False)
+    b = torch.load(tmp_path / "r.pt", weights_only=False)
+    for k in a["last_model"]:
+        torch.testing.assert_close(a["last_model"][k], b["last_model"][k])
+    assert [h["epoch"] for h in b["history"]] == [1, 2, 3, 4]
+
+
+def test_nan_loss_raises_clear_error(tmp_path):
+    train_set, val_set = _problem()
+
+    def nan_loss(model, batch):
+        x, y = batch
+        return (model(x) * float("nan")).mean(), {}
+
+    with pytest.raises(FloatingPointError, match="epoch 1, step 1"):
+        train.fit(_model(), train_set, val_set, nan_loss, _cfg(1), tmp_path / "m.pt", tmp_path / "l.csv")
+    assert not (tmp_path / "m.pt").exists()
+
+
+def test_resolve_device_and_config_errors():
+    assert train.resolve_device("auto", 2).type in ("cpu", "cuda")
+    if not torch.cuda.is_available():
+        with pytest.raises(RuntimeError, match="CUDA is not available"):
+            train.resolve_device("cuda")
+    with pytest.raises(KeyError, match="unknown training keys \\['epochz'\\]"):
+        train.TrainConfig.from_dict({"epochz": 3})

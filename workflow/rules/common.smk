@@ -1,0 +1,77 @@
+# Config validation, helpers and input functions shared by every stage.
+import os
+
+from snakemake.utils import validate
+
+# Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here.
+validate(config, schema="../schemas/config.schema.yaml")
+
+# Jobs import neurender from this checkout even inside a bare `--sdm conda` environment.
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    p for p in (os.path.join(workflow.basedir, "src"), os.environ.get("PYTHONPATH")) if p
+)
+
+BUILTIN_OBJECTS = ("head", "cloth", "creature")
+BUILTIN_PROBES = ("sky", "sunset", "studio")
+PRT_SPLITS = ("train", "val", "test")
+
+
+def _check_names(kind, names, builtins, user):
+    for name in names:
+        if name not in builtins and name not in user:
+            raise ValueError(
+                f"config: {kind} {name!r} is neither built in ({', '.join(builtins)}) "
+                f"nor listed under the user entries ({', '.join(user) or 'none'})"
+            )
+
+
+_check_names("prt.objects entry", config["prt"]["objects"], BUILTIN_OBJECTS, config["prt"]["user_meshes"])
+_check_names("prt.probes entry", config["prt"]["probes"], BUILTIN_PROBES, config["prt"]["user_probes"])
+if config["prt"]["light"] not in config["prt"]["probes"]:
+    raise ValueError(f"config: prt.light {config['prt']['light']!r} must be one of prt.probes {config['prt']['probes']}")
+
+
+wildcard_constraints:
+    object="[A-Za-z0-9_]+",
+    probe="[A-Za-z0-9_]+",
+    split="train|val|test",
+
+
+def prt_params():
+    """The PRT data subtree plus the seed: what every PRT data rule depends on."""
+    return {"seed": config["seed"], **config["prt"]}
+
+
+def prt_object_source(wildcards):
+    """A user mesh file is an input of its geometry-image job, so editing it reruns the job."""
+    path = config["prt"]["user_meshes"].get(wildcards.object)
+    return [path] if path else []
+
+
+def prt_probe_source(wildcards):
+    path = config["prt"]["user_probes"].get(wildcards.probe)
+    return [path] if path else []
+
+
+def prt_all_objects():
+    return list(config["prt"]["objects"]) + ["plane"]
+
+
+def report_tables():
+    return expand("results/prt/{table}.csv", table=("data", "noise_floor", "benchmark"))
+
+
+def report_figures():
+    frames = expand("results/prt/figures/{object}_frames.png", object=config["prt"]["objects"])
+    return frames + ["results/prt/figures/light_probes.png"]
+
+
+def prt_subset(*keys):
+    """Only the PRT config keys a rule uses, so unrelated edits never rerun it."""
+    return {"seed": config["seed"], **{k: config["prt"][k] for k in keys}}
+
+
+def prt_directions(wildcards):
+    """Test frames get the clean reference's direction count (paper scale: >= 4x)."""
+    key = "reference_directions" if wildcards.split == "test" else "directions"
+    return config["prt"][key]

@@ -1,0 +1,22 @@
+# The HTML report: every measured table and figure beside the papers' numbers.
+
+
+rule report:
+    input:
+        tables=report_tables(),
+        figures=report_figures(),
+    output:
+        html="results/report.html",
+    params:
+        title=config["report"]["title"],
+        configfiles=[str(f) for f in workflow.configfiles],
+        seed=config["seed"],
+    log:
+        "results/logs/report/report.log",
+    benchmark:
+        "results/benchmarks/report/report.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/report.py"
