@@ -18,8 +18,13 @@ def test_ssim_matches_skimage():
     ours = metrics.ssim_map(a, b)[..., 5:-5, 5:-5].flatten(1).mean(1)
     for i in range(a.shape[0]):
         ref = structural_similarity(
-            a[i].numpy(), b[i].numpy(), channel_axis=0, gaussian_weights=True, sigma=1.5,
-            use_sample_covariance=False, data_range=1.0,
+            a[i].numpy(),
+            b[i].numpy(),
+            channel_axis=0,
+            gaussian_weights=True,
+            sigma=1.5,
+            use_sample_covariance=False,
+            data_range=1.0,
         )
         assert abs(float(ours[i]) - ref) < 1e-3
 

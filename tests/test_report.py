@@ -8,8 +8,12 @@ def test_report_shows_measurements_and_marks_unrun_sections(tmp_path):
     res = tmp_path / "results" / "prt"
     df = pd.DataFrame(
         {
-            "method": ["prt"] * 2, "dataset": ["head"] * 2, "model": ["DeepPRT"] * 2,
-            "split": ["test"] * 2, "metric": ["ssim", "ssim"], "value": [0.5, 0.7],
+            "method": ["prt"] * 2,
+            "dataset": ["head"] * 2,
+            "model": ["DeepPRT"] * 2,
+            "split": ["test"] * 2,
+            "metric": ["ssim", "ssim"],
+            "value": [0.5, 0.7],
         }
     )
     io.write_csv(res / "metrics.csv", df)

@@ -80,7 +80,9 @@ def test_rotate_zonal_matches_projection():
     dirs, dw = sh.latlong_directions(512, 1024)
     f = np.clip(dirs @ axis, 0, None)
     numeric = np.einsum("hw,hwk->k", f * dw, sh.eval_sh(dirs, 5))
-    np.testing.assert_allclose(sh.rotate_zonal(np.array(sh.CLAMPED_COSINE_ZONAL), axis), numeric, atol=5e-4)
+    np.testing.assert_allclose(
+        sh.rotate_zonal(np.array(sh.CLAMPED_COSINE_ZONAL), axis), numeric, atol=5e-4
+    )
 
 
 def test_latlong_round_trip_of_band_limited_function():
@@ -98,7 +100,9 @@ def test_latlong_convention_matches_mitsuba():
     u = np.mod(np.arctan2(dirs[..., 0], -dirs[..., 2]) / (2 * np.pi), 1.0)
     v = np.arccos(dirs[..., 1]) / np.pi
     np.testing.assert_allclose(u * 16 - 0.5, np.broadcast_to(np.arange(16), (8, 16)), atol=1e-9)
-    np.testing.assert_allclose(v * 8 - 0.5, np.broadcast_to(np.arange(8)[:, None], (8, 16)), atol=1e-9)
+    np.testing.assert_allclose(
+        v * 8 - 0.5, np.broadcast_to(np.arange(8)[:, None], (8, 16)), atol=1e-9
+    )
 
 
 def test_stratified_directions_are_unit_and_stratified():

@@ -30,7 +30,9 @@ def _cfg(epochs):
 
 def test_training_reduces_loss_and_writes_tidy_log(tmp_path):
     train_set, val_set = _problem()
-    hist = train.fit(_model(), train_set, val_set, _loss, _cfg(8), tmp_path / "m.pt", tmp_path / "log.csv")
+    hist = train.fit(
+        _model(), train_set, val_set, _loss, _cfg(8), tmp_path / "m.pt", tmp_path / "log.csv"
+    )
     log = pd.read_csv(tmp_path / "log.csv")
     assert list(log.columns) == ["epoch", "split", "metric", "value"]
     val = hist[(hist.split == "val") & (hist.metric == "loss")].value.to_numpy()
@@ -62,7 +64,15 @@ def test_resume_after_interruption_is_identical(tmp_path):
         return _loss(model, batch)
 
     with pytest.raises(KeyboardInterrupt):
-        train.fit(partial, train_set, val_set, interrupting_loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+        train.fit(
+            partial,
+            train_set,
+            val_set,
+            interrupting_loss,
+            cfg,
+            tmp_path / "r.pt",
+            tmp_path / "r.csv",
+        )
     assert train.resume_path_for(tmp_path / "r.pt").exists()
     resumed = _model()
     train.fit(resumed, train_set, val_set, _loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
@@ -81,7 +91,9 @@ def test_nan_loss_raises_clear_error(tmp_path):
         return (model(x) * float("nan")).mean(), {}
 
     with pytest.raises(FloatingPointError, match="epoch 1, step 1"):
-        train.fit(_model(), train_set, val_set, nan_loss, _cfg(1), tmp_path / "m.pt", tmp_path / "l.csv")
+        train.fit(
+            _model(), train_set, val_set, nan_loss, _cfg(1), tmp_path / "m.pt", tmp_path / "l.csv"
+        )
     assert not (tmp_path / "m.pt").exists()
 
 

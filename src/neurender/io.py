@@ -67,11 +67,15 @@ def write_exr(path: PathLike, channels: Mapping[str, np.ndarray], half: bool = F
     for name, arr in channels.items():
         a = np.asarray(arr)
         if a.ndim != 2:
-            raise ValueError(f"write_exr({path}): channel {name!r} has shape {a.shape}, expected (H, W)")
+            raise ValueError(
+                f"write_exr({path}): channel {name!r} has shape {a.shape}, expected (H, W)"
+            )
         if shape is None:
             shape = a.shape
         elif a.shape != shape:
-            raise ValueError(f"write_exr({path}): channel {name!r} has shape {a.shape}, others {shape}")
+            raise ValueError(
+                f"write_exr({path}): channel {name!r} has shape {a.shape}, others {shape}"
+            )
         dtype = np.float16 if half or a.dtype == np.float16 else np.float32
         data[name] = np.ascontiguousarray(a, dtype=dtype)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}

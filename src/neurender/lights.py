@@ -33,7 +33,9 @@ def procedural_probe(name: str, height: int) -> np.ndarray:
     dirs, _ = sh.latlong_directions(height, 2 * height)
     up = dirs[..., 1:2]
     if name == "sky":
-        sky = np.where(up > 0, (1 - up) * np.array([0.9, 0.95, 1.0]) + up * np.array([0.25, 0.45, 0.95]), 0.0)
+        sky = np.where(
+            up > 0, (1 - up) * np.array([0.9, 0.95, 1.0]) + up * np.array([0.25, 0.45, 0.95]), 0.0
+        )
         ground = np.where(up <= 0, np.array([0.18, 0.14, 0.1]), 0.0)
         sun = _disk(dirs, [0.5, 0.75, 0.45], 4.0)[..., None] * np.array([60.0, 55.0, 48.0])
         img = sky + ground + sun
@@ -60,7 +62,9 @@ def load_probe(path: str | Path) -> np.ndarray:
         raise ValueError(f"light probe {path} needs R, G and B channels; it has {sorted(chans)}")
     img = np.stack([chans[k].astype(np.float32) for k in names], -1)
     if img.shape[1] != 2 * img.shape[0]:
-        raise ValueError(f"light probe {path} is {img.shape[1]}x{img.shape[0]}; a lat-long map is 2:1 (W = 2H)")
+        raise ValueError(
+            f"light probe {path} is {img.shape[1]}x{img.shape[0]}; a lat-long map is 2:1 (W = 2H)"
+        )
     if not np.isfinite(img).all() or (img < 0).any():
         raise ValueError(f"light probe {path} has negative or non-finite radiance")
     return img

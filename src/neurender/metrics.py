@@ -17,7 +17,10 @@ SSIM_WINDOW = 11
 
 def _check_pair(a: torch.Tensor, b: torch.Tensor) -> None:
     if a.shape != b.shape or a.ndim != 4:
-        raise ValueError(f"expected two (B, C, H, W) tensors of one shape, got {tuple(a.shape)} and {tuple(b.shape)}")
+        raise ValueError(
+            "expected two (B, C, H, W) tensors of one shape, "
+            f"got {tuple(a.shape)} and {tuple(b.shape)}"
+        )
 
 
 def _masked_mean(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
@@ -34,12 +37,16 @@ def ssim_map(a: torch.Tensor, b: torch.Tensor, data_range: float = 1.0) -> torch
     return kornia.metrics.ssim(a, b, SSIM_WINDOW, max_val=data_range, padding="same")
 
 
-def ssim(a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0) -> torch.Tensor:
+def ssim(
+    a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0
+) -> torch.Tensor:
     """Mean SSIM per image ``(B,)`` (within ``mask`` if given)."""
     return _masked_mean(ssim_map(a, b, data_range), mask)
 
 
-def dssim(a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0) -> torch.Tensor:
+def dssim(
+    a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0
+) -> torch.Tensor:
     """Structural dissimilarity ``(1 - SSIM) / 2`` per image ``(B,)``."""
     return (1.0 - ssim(a, b, mask, data_range)) / 2.0
 
@@ -56,6 +63,8 @@ def l2(a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None) -> to
     return _masked_mean((a - b).square(), mask)
 
 
-def psnr(a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0) -> torch.Tensor:
+def psnr(
+    a: torch.Tensor, b: torch.Tensor, mask: torch.Tensor | None = None, data_range: float = 1.0
+) -> torch.Tensor:
     """Peak signal-to-noise ratio in dB per image ``(B,)``: ``10 log10(range^2 / MSE)``."""
     return 10.0 * torch.log10(data_range**2 / l2(a, b, mask))

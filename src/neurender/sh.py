@@ -144,7 +144,9 @@ def stratified_sphere_directions(n: int, rng: np.random.Generator) -> np.ndarray
     """
     side = math.isqrt(n)
     if n <= 0 or side * side != n:
-        raise ValueError(f"direction count {n}: expected a positive perfect square (e.g. 256, 1024)")
+        raise ValueError(
+            f"direction count {n}: expected a positive perfect square (e.g. 256, 1024)"
+        )
     cells = np.stack(np.meshgrid(np.arange(side), np.arange(side), indexing="ij"), -1)
     uv = (cells.reshape(-1, 2) + rng.random((n, 2))) / side
     z = 1.0 - 2.0 * uv[:, 0]
@@ -224,7 +226,6 @@ def rotate_zonal(zonal: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """
     zonal = np.asarray(zonal, dtype=np.float64)
     n_bands = zonal.shape[0]
-    scale = np.concatenate(
-        [np.full(2 * l + 1, math.sqrt(4.0 * math.pi / (2 * l + 1)) * zonal[l]) for l in range(n_bands)]  # noqa: E741
-    )
+    per_band = [math.sqrt(4.0 * math.pi / (2 * b + 1)) * zonal[b] for b in range(n_bands)]
+    scale = np.concatenate([np.full(2 * b + 1, s) for b, s in enumerate(per_band)])
     return eval_sh(np.asarray(axis, dtype=np.float64), n_bands) * scale

@@ -66,7 +66,9 @@ def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
         name = "cuda" if torch.cuda.is_available() else "cpu"
     device = torch.device(name)
     if device.type == "cuda" and not torch.cuda.is_available():
-        raise RuntimeError(f"device {name!r} requested but CUDA is not available; use device: auto or cpu")
+        raise RuntimeError(
+            f"device {name!r} requested but CUDA is not available; use device: auto or cpu"
+        )
     if device.type == "cpu":
         torch.set_num_threads(max(1, threads))
     return device
@@ -75,7 +77,7 @@ def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
 def seed_everything(seed: int) -> None:
     """Seed Python, numpy and torch (CPU and CUDA)."""
     random.seed(seed)
-    np.random.seed(seed % 2**32)
+    np.random.seed(seed % 2**32)  # noqa: NPY002 - seeds code that uses the legacy global RNG
     torch.manual_seed(seed)
 
 
@@ -122,7 +124,7 @@ def _evaluate(model, loader, loss_fn, device) -> dict[str, float]:
         for batch in loader:
             loss, logs = loss_fn(model, to_device(batch, device))
             n = len(next(iter(batch.values())) if isinstance(batch, Mapping) else batch[0])
-            for key, value in {"loss": float(loss), **logs}.items():
+            for key, value in {"loss": loss.item(), **logs}.items():
                 sums[key] = sums.get(key, 0.0) + float(value) * n
             count += n
     return {k: v / max(count, 1) for k, v in sums.items()}
@@ -182,13 +184,19 @@ def fit(
             log.info("ignoring %s: it was written with another training config", resume_path)
 
     val_loader = (
-        DataLoader(val_set, batch_size=config.batch_size, shuffle=False) if val_set is not None else None
+        DataLoader(val_set, batch_size=config.batch_size, shuffle=False)
+        if val_set is not None
+        else None
     )
-    epochs = tqdm(range(start_epoch, config.epochs), desc="epochs", file=sys.stderr, mininterval=2.0)
+    epochs = tqdm(
+        range(start_epoch, config.epochs), desc="epochs", file=sys.stderr, mininterval=2.0
+    )
     for epoch in epochs:
         model.train()
         shuffle = torch.Generator().manual_seed(config.seed * 100_003 + epoch)
-        loader = DataLoader(train_set, batch_size=config.batch_size, shuffle=True, generator=shuffle)
+        loader = DataLoader(
+            train_set, batch_size=config.batch_size, shuffle=True, generator=shuffle
+        )
         sums: dict[str, float] = {}
         for step, batch in enumerate(loader):
             loss, logs = loss_fn(model, to_device(batch, device))
@@ -201,11 +209,13 @@ def fit(
             loss.backward()
             optimizer.step()
             scheduler.step()
-            for key, value in {"loss": float(loss), **logs}.items():
+            for key, value in {"loss": loss.item(), **logs}.items():
                 sums[key] = sums.get(key, 0.0) + float(value)
         row = {f"train_{k}": v / max(steps_per_epoch, 1) for k, v in sums.items()}
         if val_loader is not None:
-            row.update({f"val_{k}": v for k, v in _evaluate(model, val_loader, loss_fn, device).items()})
+            row.update(
+                {f"val_{k}": v for k, v in _evaluate(model, val_loader, loss_fn, device).items()}
+            )
         history.append({"epoch": epoch + 1, **row})
         score = row.get("val_loss", row["train_loss"])
         if score < best_val:

@@ -1,15 +1,8 @@
 # Config validation, helpers and input functions shared by every stage.
-import os
-
 from snakemake.utils import validate
 
 # Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here.
 validate(config, schema="../schemas/config.schema.yaml")
-
-# Jobs import neurender from this checkout even inside a bare `--sdm conda` environment.
-os.environ["PYTHONPATH"] = os.pathsep.join(
-    p for p in (os.path.join(workflow.basedir, "src"), os.environ.get("PYTHONPATH")) if p
-)
 
 BUILTIN_OBJECTS = ("head", "cloth", "creature")
 BUILTIN_PROBES = ("sky", "sunset", "studio")

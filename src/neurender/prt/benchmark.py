@@ -18,7 +18,7 @@ import scipy.ndimage
 from neurender import io
 from neurender.prt import transfer
 from neurender.prt.data import ray_offset, stable_seed
-from neurender.prt.geometry_image import grid_faces, vertex_normals
+from neurender.prt.geometry_image import grid_faces, grid_normals
 
 
 def _best_of(fn, repeats: int = 2) -> float:
@@ -30,7 +30,9 @@ def _best_of(fn, repeats: int = 2) -> float:
     return min(times)
 
 
-def stage_vs_embree(positions: np.ndarray, cfg: dict, threads: int, directions: int, light: np.ndarray | None):
+def stage_vs_embree(
+    positions: np.ndarray, cfg: dict, threads: int, directions: int, light: np.ndarray | None
+):
     """Seconds per frame of the stage and of bare Embree on the same rays, and the ray count."""
     n_bands = cfg["n_bands"]
     faces = grid_faces(positions.shape[0])
@@ -47,11 +49,15 @@ def stage_vs_embree(positions: np.ndarray, cfg: dict, threads: int, directions: 
     rng = np.random.default_rng(seed)
     sets = transfer.DirectionSets(cfg["direction_sets"], directions, n_bands, rng)
     p = positions.reshape(-1, 3).astype(np.float32)
-    normals = vertex_normals(p.astype(np.float64), faces).astype(np.float32)
-    d = sets.dirs[rng.integers(0, sets.dirs.shape[0], len(p))]
-    vi, di = np.nonzero(np.einsum("nsc,nc->ns", d, normals) > 0)
-    origins = np.ascontiguousarray(p[vi] + offset * normals[vi])
-    dirs = np.ascontiguousarray(d[vi, di])
+    normals = grid_normals(positions).reshape(-1, 3).astype(np.float32)
+    assignment = rng.integers(0, sets.dirs.shape[0], len(p))
+    jobs = transfer.direction_jobs(assignment, sets.dirs.shape[0])
+    rays_of = [transfer.upper_hemisphere_rays(p[rows], normals[rows], sets.dirs[s], offset) for s, rows in jobs]
+    # Sorted by origin (vertex index), the most coherent order for Embree.
+    vertex = np.concatenate([np.repeat(rows, r[1].sum(1)) for (_, rows), r in zip(jobs, rays_of, strict=True)])
+    order = np.argsort(vertex, kind="stable")
+    origins = np.ascontiguousarray(np.concatenate([r[2] for r in rays_of])[order])
+    dirs = np.ascontiguousarray(np.concatenate([r[3] for r in rays_of])[order])
     if len(origins) != rays:
         raise RuntimeError(f"benchmark rays {len(origins)} differ from the stage's {rays}")
     t_stage = _best_of(stage)
@@ -59,7 +65,9 @@ def stage_vs_embree(positions: np.ndarray, cfg: dict, threads: int, directions: 
     return t_stage, t_embree, rays
 
 
-def run_benchmark(seq_path: str, light: np.ndarray, cfg: dict, threads: int, out: str) -> pd.DataFrame:
+def run_benchmark(
+    seq_path: str, light: np.ndarray, cfg: dict, threads: int, out: str
+) -> pd.DataFrame:
     """Write the benchmark as tidy CSV (``method, dataset, model, split, metric, value``)."""
     seq = io.load_npz(seq_path)
     frame = seq["train_positions"][0].astype(np.float64)
@@ -67,8 +75,16 @@ def run_benchmark(seq_path: str, light: np.ndarray, cfg: dict, threads: int, out
     rows = []
 
     def add(setting: str, metric: str, value: float) -> None:
-        rows.append({"method": "prt", "dataset": setting, "model": "ray-traced ground truth",
-                     "split": "benchmark", "metric": metric, "value": float(value)})
+        rows.append(
+            {
+                "method": "prt",
+                "dataset": setting,
+                "model": "ray-traced ground truth",
+                "split": "benchmark",
+                "metric": metric,
+                "value": float(value),
+            }
+        )
 
     setting = f"n={n}, {cfg['directions']} dirs, {threads} threads"
     t_stage, t_embree, rays = stage_vs_embree(frame, cfg, threads, cfg["directions"], light)

@@ -50,10 +50,20 @@ def stable_seed(*parts: Any) -> list[int]:
 
 def make_probe(name: str, user_path: str | None, cfg: dict, exr_out: str, sh_out: str) -> None:
     """Build (or load) a light probe, write it as EXR and its SH projection as tidy CSV."""
-    image = lights.load_probe(user_path) if user_path else lights.procedural_probe(name, cfg["probe_height"])
+    image = (
+        lights.load_probe(user_path)
+        if user_path
+        else lights.procedural_probe(name, cfg["probe_height"])
+    )
     coeffs = sh.project_latlong(image, cfg["n_bands"])
     rows = [
-        {"k": k, "l": int(np.sqrt(k)), "m": k - int(np.sqrt(k)) * (int(np.sqrt(k)) + 1), "channel": c, "value": coeffs[k, i]}
+        {
+            "k": k,
+            "l": int(np.sqrt(k)),
+            "m": k - int(np.sqrt(k)) * (int(np.sqrt(k)) + 1),
+            "channel": c,
+            "value": coeffs[k, i],
+        }
         for k in range(coeffs.shape[0])
         for i, c in enumerate("RGB")
     ]
@@ -71,7 +81,9 @@ def read_sh_light(path: str | Path) -> np.ndarray:
 # ---------------------------------------------------------------- geometry images
 
 
-def make_geometry_image(name: str, user_path: str | None, cfg: dict, gim_out: str, stats_out: str) -> None:
+def make_geometry_image(
+    name: str, user_path: str | None, cfg: dict, gim_out: str, stats_out: str
+) -> None:
     """Parametrise the object's source mesh and resample it (and its blendshapes) on the grid."""
     start = time.perf_counter()
     n, seed = cfg["resolution"], cfg["seed"]
@@ -83,7 +95,11 @@ def make_geometry_image(name: str, user_path: str | None, cfg: dict, gim_out: st
         raise RuntimeError(f"object {name}: harmonic map still has {gim.flipped} flipped triangles")
     rest = gim.resample(mesh.faces, mesh.vertices)
     names = sorted(mesh.blendshapes, key=objects.BLENDSHAPES.index) if mesh.blendshapes else []
-    deltas = np.stack([gim.resample(mesh.faces, mesh.blendshapes[b]) for b in names]) if names else np.zeros((0, n, n, 3))
+    deltas = (
+        np.stack([gim.resample(mesh.faces, mesh.blendshapes[b]) for b in names])
+        if names
+        else np.zeros((0, n, n, 3))
+    )
     error = reconstruction_error(mesh.vertices, mesh.faces, rest)
     kind = "user" if user_path else name
     io.save_npz(
@@ -111,8 +127,17 @@ def make_geometry_image(name: str, user_path: str | None, cfg: dict, gim_out: st
 
 def _tidy(dataset: str, model: str, split: str, values: dict[str, float]) -> pd.DataFrame:
     return pd.DataFrame(
-        [{"method": "prt", "dataset": dataset, "model": model, "split": split, "metric": k, "value": float(v)}
-         for k, v in values.items()]
+        [
+            {
+                "method": "prt",
+                "dataset": dataset,
+                "model": model,
+                "split": split,
+                "metric": k,
+                "value": float(v),
+            }
+            for k, v in values.items()
+        ]
     )
 
 
@@ -160,8 +185,12 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
         seq_disp = deform.lattice_displacements(seq_len, shape, amplitude, rng)
         test_disp = deform.lattice_displacements(n_test, shape, amplitude, test_rng, period=37.0)
         flat = rest.reshape(-1, 3)
-        seq_pos = np.stack([deform.ffd(flat, lower, upper, lattice + d) for d in seq_disp]).reshape(-1, *rest.shape)
-        test_pos = np.stack([deform.ffd(flat, lower, upper, lattice + d) for d in test_disp]).reshape(-1, *rest.shape)
+        seq_pos = np.stack([deform.ffd(flat, lower, upper, lattice + d) for d in seq_disp]).reshape(
+            -1, *rest.shape
+        )
+        test_pos = np.stack(
+            [deform.ffd(flat, lower, upper, lattice + d) for d in test_disp]
+        ).reshape(-1, *rest.shape)
         seq_params, test_params = seq_disp.reshape(seq_len, -1), test_disp.reshape(n_test, -1)
     order = np.random.default_rng(stable_seed(cfg["seed"], name, "split")).permutation(seq_len)
     val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
@@ -179,7 +208,9 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
     )
 
 
-def _pca_params(seq_pos: np.ndarray, test_pos: np.ndarray, count: int = 16) -> tuple[np.ndarray, np.ndarray]:
+def _pca_params(
+    seq_pos: np.ndarray, test_pos: np.ndarray, count: int = 16
+) -> tuple[np.ndarray, np.ndarray]:
     """Leading PCA coefficients of the position images (the shape parameters of a simulation)."""
     x = seq_pos.reshape(len(seq_pos), -1)
     mean = x.mean(0)
@@ -209,8 +240,15 @@ def ray_offset(positions: np.ndarray, relative: float) -> float:
 
 
 def compute_transfer(
-    name: str, seq_path: str, light_csv: str, split: str, directions: int, cfg: dict, threads: int,
-    out_dir: str, manifest: str,
+    name: str,
+    seq_path: str,
+    light_csv: str,
+    split: str,
+    directions: int,
+    cfg: dict,
+    threads: int,
+    out_dir: str,
+    manifest: str,
 ) -> None:
     """Ray-trace diffuse and glossy transfer of every frame of a split, one EXR per frame."""
     seq = io.load_npz(seq_path)
@@ -233,15 +271,22 @@ def compute_transfer(
         channels = {}
         channels.update(zip(names["P"], np.moveaxis(positions[f], -1, 0), strict=True))
         channels.update(zip(names["N"], np.moveaxis(normals, -1, 0), strict=True))
-        channels.update(zip(names["T"], np.moveaxis(diffuse.astype(np.float16), -1, 0), strict=True))
+        channels.update(
+            zip(names["T"], np.moveaxis(diffuse.astype(np.float16), -1, 0), strict=True)
+        )
         g = glossy.reshape(*glossy.shape[:2], -1).astype(np.float16)  # (n, n, 3 K), colour-major
         channels.update(zip(names["G"], np.moveaxis(g, -1, 0), strict=True))
         file = Path(out_dir) / f"frame_{f:04d}.exr"
         io.write_exr(file, channels)
         rows.append(
             {
-                "frame": f, "split": split, "file": file.name, "directions": directions, "rays": rays,
-                "seconds": seconds, "rays_per_s": rays / seconds,
+                "frame": f,
+                "split": split,
+                "file": file.name,
+                "directions": directions,
+                "rays": rays,
+                "seconds": seconds,
+                "rays_per_s": rays / seconds,
                 "extrapolated": bool(seq["test_extrapolated"][f]) if split == "test" else False,
             }
         )
@@ -252,7 +297,9 @@ def read_frame(path: str | Path, n_bands: int) -> dict[str, np.ndarray]:
     """One frame EXR as arrays: P, N ``(n, n, 3)``, T ``(n, n, K)``, G ``(n, n, 3, K)`` float32."""
     names = channel_names(n_bands)
     ch = io.read_exr(path, [c for group in names.values() for c in group])
-    stack = {key: np.stack([ch[c].astype(np.float32) for c in cols], -1) for key, cols in names.items()}
+    stack = {
+        key: np.stack([ch[c].astype(np.float32) for c in cols], -1) for key, cols in names.items()
+    }
     n = stack["P"].shape[0]
     stack["G"] = stack["G"].reshape(n, n, 3, n_bands * n_bands)
     return stack
@@ -311,8 +358,15 @@ def noise_floor(
         }
         for metric, value in values.items():
             rows.append(
-                {"method": "prt", "dataset": name, "model": f"ground truth {directions} dirs", "split": "test",
-                 "frame": f, "metric": metric, "value": float(value)}
+                {
+                    "method": "prt",
+                    "dataset": name,
+                    "model": f"ground truth {directions} dirs",
+                    "split": "test",
+                    "frame": f,
+                    "metric": metric,
+                    "value": float(value),
+                }
             )
     io.write_csv(out, pd.DataFrame(rows))
 
@@ -320,7 +374,9 @@ def noise_floor(
 # ---------------------------------------------------------------- summary and figure
 
 
-def summarise(gim_csvs: list[str], manifests: list[str], noise_csvs: list[str], data_out: str, noise_out: str) -> None:
+def summarise(
+    gim_csvs: list[str], manifests: list[str], noise_csvs: list[str], data_out: str, noise_out: str
+) -> None:
     """Collect per-object statistics into ``data.csv`` and the noise floor into one table."""
     frames = [io.read_csv(p) for p in gim_csvs]
     for path in manifests:
@@ -338,7 +394,9 @@ def summarise(gim_csvs: list[str], manifests: list[str], noise_csvs: list[str], 
     io.write_csv(noise_out, noise.drop(columns="frame"))
 
 
-def frames_figure(name: str, test_dir: str, light_csv: str, n_bands: int, out: str, count: int = 3) -> None:
+def frames_figure(
+    name: str, test_dir: str, light_csv: str, n_bands: int, out: str, count: int = 3
+) -> None:
     """Position, normal, diffuse-transfer and relit-radiance images of a few test frames."""
     import matplotlib
 
@@ -359,7 +417,10 @@ def frames_figure(name: str, test_dir: str, light_csv: str, n_bands: int, out: s
             (pn, "P (normalised)"),
             ((fr["N"] + 1) / 2, "N (n+1)/2"),
             (fr["T"][..., 0] / max(fr["T"][..., 0].max(), 1e-9), "T.00 (ambient occlusion)"),
-            (np.clip(radiance / np.percentile(radiance, 99.5), 0, 1) ** (1 / 2.2), "relit, diffuse"),
+            (
+                np.clip(radiance / np.percentile(radiance, 99.5), 0, 1) ** (1 / 2.2),
+                "relit, diffuse",
+            ),
         ]
         for ax, (img, title) in zip(row, panels, strict=True):
             ax.imshow(np.clip(img, 0, 1), cmap="gray" if img.ndim == 2 else None, origin="lower")
@@ -373,7 +434,7 @@ def frames_figure(name: str, test_dir: str, light_csv: str, n_bands: int, out: s
 
 
 def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
-    """Each probe, its SH reconstruction, and the halfway interpolation of the first two (Fig. 2)."""
+    """Each probe, its SH reconstruction and the halfway blend of the first two (paper Fig. 2)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -388,7 +449,9 @@ def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
     for path, img, c in zip(exrs, images, coeffs, strict=True):
         h = img.shape[0]
         panels.append((img, f"{Path(path).stem}"))
-        panels.append((np.clip(sh.reconstruct_latlong(c, h, 2 * h), 0, None), f"{Path(path).stem}, SH"))
+        panels.append(
+            (np.clip(sh.reconstruct_latlong(c, h, 2 * h), 0, None), f"{Path(path).stem}, SH")
+        )
     if len(coeffs) >= 2:
         h = images[0].shape[0]
         mid = np.clip(sh.reconstruct_latlong(0.5 * (coeffs[0] + coeffs[1]), h, 2 * h), 0, None)

@@ -12,7 +12,9 @@ import numpy as np
 import scipy.ndimage
 
 
-def smooth_walk(frames: int, dims: int, rng: np.random.Generator, period: float = 60.0) -> np.ndarray:
+def smooth_walk(
+    frames: int, dims: int, rng: np.random.Generator, period: float = 60.0
+) -> np.ndarray:
     """Smooth random walk in ``[0, 1]^dims``: a sum of random sinusoids, squashed.
 
     Returns:
@@ -49,7 +51,9 @@ def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
     return binom * t**i * (1.0 - t) ** (degree - i)
 
 
-def ffd(points: np.ndarray, lower: np.ndarray, upper: np.ndarray, control: np.ndarray) -> np.ndarray:
+def ffd(
+    points: np.ndarray, lower: np.ndarray, upper: np.ndarray, control: np.ndarray
+) -> np.ndarray:
     """Sederberg-Parry free-form deformation with a Bernstein lattice.
 
     Args:
@@ -73,7 +77,11 @@ def ffd_lattice(lower: np.ndarray, upper: np.ndarray, shape: tuple[int, int, int
 
 
 def lattice_displacements(
-    frames: int, shape: tuple[int, int, int], amplitude: float, rng: np.random.Generator, period: float = 50.0
+    frames: int,
+    shape: tuple[int, int, int],
+    amplitude: float,
+    rng: np.random.Generator,
+    period: float = 50.0,
 ) -> np.ndarray:
     """Smoothly moving control-point offsets ``(frames, *shape, 3)`` of size ~``amplitude``."""
     walk = smooth_walk(frames, int(np.prod(shape)) * 3, rng, period)
@@ -108,7 +116,9 @@ def simulate_cloth(
     """
     n = rest.shape[0]
     m = min(sim_side, n)
-    coarse = np.stack([scipy.ndimage.zoom(rest[..., c], m / n, order=1) for c in range(3)], -1)[:m, :m]
+    coarse = np.stack([scipy.ndimage.zoom(rest[..., c], m / n, order=1) for c in range(3)], -1)[
+        :m, :m
+    ]
     # rest geometry image: x right, y up in the sheet -> lay it in the x-z plane at height 1.
     x = np.stack([coarse[..., 0], np.full((m, m), 1.0), -coarse[..., 1]], -1).reshape(-1, 3)
     x0 = x.copy()
@@ -149,7 +159,13 @@ def simulate_cloth(
                 d = p[pairs[:, 1]] - p[pairs[:, 0]]
                 length = np.linalg.norm(d, axis=1, keepdims=True)
                 corr = 0.5 * (1.0 - rest_len[:, None] / np.maximum(length, 1e-12)) * d
-                delta = np.stack([np.bincount(ends, np.concatenate([corr[:, c], -corr[:, c]]), m * m) for c in range(3)], 1)
+                delta = np.stack(
+                    [
+                        np.bincount(ends, np.concatenate([corr[:, c], -corr[:, c]]), m * m)
+                        for c in range(3)
+                    ],
+                    1,
+                )
                 p += 1.5 * delta / counts  # over-relaxed Jacobi average
                 p = _push_out_of_sphere(p, centre, radius * 1.02)
                 p[pinned] = x0[pinned]
@@ -157,8 +173,12 @@ def simulate_cloth(
             x = p
         if frame >= warmup:
             grid = x.reshape(m, m, 3)
-            fine = np.stack([scipy.ndimage.zoom(grid[..., c], n / m, order=3) for c in range(3)], -1)
-            out[frame - warmup] = _push_out_of_sphere(fine.reshape(-1, 3), centre, radius).reshape(n, n, 3)
+            fine = np.stack(
+                [scipy.ndimage.zoom(grid[..., c], n / m, order=3) for c in range(3)], -1
+            )
+            out[frame - warmup] = _push_out_of_sphere(fine.reshape(-1, 3), centre, radius).reshape(
+                n, n, 3
+            )
     return out
 
 

@@ -82,7 +82,9 @@ def boundary_square(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
 def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Signed area of each triangle in the plane ``(F,)`` (positive = counter-clockwise)."""
     a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    return 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
 
 
 def _tutte(faces: np.ndarray, n_vertices: int, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
@@ -111,12 +113,15 @@ def harmonic_square_map(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.nda
         ``uv`` ``(V, 2)``, the weights used, and the number of flipped triangles left.
     """
     loop = np.asarray(igl.boundary_loop(faces), dtype=np.int64)
+    # Start at the lower-left extreme (min x + y) so a face-like mesh facing +z gets its
+    # corners on the diagonals and lands upright in the image.
+    loop = np.roll(loop, -int(np.argmin(vertices[loop, 0] + vertices[loop, 1])))
     bc = boundary_square(vertices, loop)
     # Orient the loop like the square (counter-clockwise w.r.t. the faces); a reversed loop
     # would flip every triangle.
     uv = igl.harmonic(vertices, faces, loop, bc, 1)
     if signed_areas(uv, faces).sum() < 0:
-        loop = loop[::-1].copy()
+        loop = np.roll(loop[::-1], 1)  # same start vertex, other direction
         bc = boundary_square(vertices, loop)
         uv = igl.harmonic(vertices, faces, loop, bc, 1)
     flipped = int((signed_areas(uv, faces) <= 0).sum())
@@ -176,9 +181,19 @@ def vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def grid_normals(positions: np.ndarray) -> np.ndarray:
-    """Unit normals ``(n, n, 3)`` of a geometry image ``(n, n, 3)`` from its grid mesh."""
+    """Unit normals ``(n, n, 3)`` of a geometry image ``(n, n, 3)`` from its grid mesh.
+
+    A square corner of the image has only one or two grid triangles, and they are
+    nearly degenerate where a smooth boundary was pinned to a 90-degree corner; the four
+    corner vertices therefore take the normal of their diagonal neighbour.
+    """
     n = positions.shape[0]
-    return vertex_normals(positions.reshape(-1, 3), grid_faces(n)).reshape(n, n, 3)
+    normals = vertex_normals(positions.reshape(-1, 3).astype(np.float64), grid_faces(n)).reshape(
+        n, n, 3
+    )
+    for i, j in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
+        normals[i, j] = normals[1 if i == 0 else -2, 1 if j == 0 else -2]
+    return normals
 
 
 def reconstruction_error(

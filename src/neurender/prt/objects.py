@@ -22,7 +22,15 @@ import numpy as np
 import scipy.spatial
 import trimesh
 
-BLENDSHAPES = ("smile", "frown", "jaw_open", "brow_raise", "cheek_puff", "nose_wrinkle", "eyes_close")
+BLENDSHAPES = (
+    "smile",
+    "frown",
+    "jaw_open",
+    "brow_raise",
+    "cheek_puff",
+    "nose_wrinkle",
+    "eyes_close",
+)
 USER_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 
 
@@ -61,7 +69,9 @@ def disk_mesh(n_vertices: int, rng: np.random.Generator) -> tuple[np.ndarray, np
     faces = scipy.spatial.Delaunay(points).simplices.astype(np.int64)
     # Drop slivers Delaunay may create along the convex boundary.
     a, b, c = (points[faces[:, k]] for k in range(3))
-    area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    area = 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
     faces[area < 0] = faces[area < 0][:, [0, 2, 1]]
     return points, faces[np.abs(area) > 1e-10]
 
@@ -147,7 +157,9 @@ def creature_mesh(n_vertices: int, rng: np.random.Generator) -> SourceMesh:
     for _ in range(int(rng.integers(5, 8))):
         angle, radius = rng.uniform(0, 2 * np.pi), rng.uniform(0.25, 0.75)
         cx, cy = 1.4 * radius * np.cos(angle), 0.9 * radius * np.sin(angle)
-        z += rng.uniform(0.25, 0.45) * _gauss(x, y, cx, cy, rng.uniform(0.07, 0.12), rng.uniform(0.07, 0.12))
+        z += rng.uniform(0.25, 0.45) * _gauss(
+            x, y, cx, cy, rng.uniform(0.07, 0.12), rng.uniform(0.07, 0.12)
+        )
     return SourceMesh(np.stack([x, y, z], 1), faces)
 
 
@@ -173,13 +185,18 @@ def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> N
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     non_manifold = int((counts > 2).sum())
-    components = len(trimesh.graph.connected_components(trimesh.graph.face_adjacency(faces), nodes=np.arange(len(faces))))
+    components = len(
+        trimesh.graph.connected_components(
+            trimesh.graph.face_adjacency(faces), nodes=np.arange(len(faces))
+        )
+    )
     loops = len(igl.boundary_loop_all(faces)) if non_manifold == 0 else -1
     if components != 1 or loops != 1 or non_manifold:
         raise ValueError(
             f"mesh {name}: found {components} connected components, "
-            f"{loops if loops >= 0 else 'undetermined'} boundary loops and {non_manifold} non-manifold edges; "
-            "a geometry image needs one connected surface with exactly one boundary loop (disk topology)"
+            f"{loops if loops >= 0 else 'undetermined'} boundary loops and "
+            f"{non_manifold} non-manifold edges; a geometry image needs one connected surface "
+            "with exactly one boundary loop (disk topology)"
         )
 
 
@@ -187,7 +204,9 @@ def load_user_mesh(path: str | Path) -> SourceMesh:
     """Load an OBJ/PLY/STL/OFF mesh and check it has disk topology (errors name the file)."""
     p = Path(path)
     if p.suffix.lower() not in USER_MESH_SUFFIXES:
-        raise ValueError(f"mesh {p}: unsupported format {p.suffix!r}; expected one of {USER_MESH_SUFFIXES}")
+        raise ValueError(
+            f"mesh {p}: unsupported format {p.suffix!r}; expected one of {USER_MESH_SUFFIXES}"
+        )
     if not p.is_file():
         raise FileNotFoundError(f"mesh file {p} does not exist")
     try:

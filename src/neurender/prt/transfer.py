@@ -27,13 +27,15 @@ from embreex.mesh_construction import TriangleMesh
 from threadpoolctl import threadpool_limits
 
 from neurender import sh
-from neurender.prt.geometry_image import vertex_normals
+from neurender.prt.geometry_image import grid_normals
 
 
 def embree_scene(vertices: np.ndarray, faces: np.ndarray) -> rtcore_scene.EmbreeScene:
     """An Embree scene of one triangle mesh ``(V, 3)``, ``(F, 3)``, its BVH already built."""
     scene = rtcore_scene.EmbreeScene()
-    TriangleMesh(scene, np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.int32))
+    TriangleMesh(
+        scene, np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.int32)
+    )
     probe = np.zeros((1, 3), np.float32)
     scene.run(probe, probe + np.float32([0, 0, 1]), query="OCCLUDED")  # builds the BVH once
     return scene
@@ -77,7 +79,9 @@ class DirectionSets:
     """
 
     def __init__(self, count: int, directions: int, n_bands: int, rng: np.random.Generator):
-        self.dirs = np.stack([sh.stratified_sphere_directions(directions, rng) for _ in range(count)])
+        self.dirs = np.stack(
+            [sh.stratified_sphere_directions(directions, rng) for _ in range(count)]
+        )
         self.basis = sh.eval_sh(self.dirs, n_bands).astype(np.float32)
         self.dirs = self.dirs.astype(np.float32)
 
@@ -85,6 +89,31 @@ class DirectionSets:
     def weight(self) -> float:
         """Solid angle per sample, ``4 pi / S``."""
         return 4.0 * math.pi / self.dirs.shape[1]
+
+
+def upper_hemisphere_rays(
+    positions: np.ndarray, normals: np.ndarray, dirs: np.ndarray, offset: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Occlusion rays of vertices ``(N, 3)`` along the directions ``(S, 3)`` above their tangent plane.
+
+    Returns:
+        ``cos`` ``(N, S)``, ``upper = cos > 0``, and ray origins and directions ``(R, 3)``
+        in vertex-major order (sorted by origin).
+    """
+    cos = normals @ dirs.T
+    upper = cos > 0
+    # repeat/take are much cheaper than fancy indexing, which would cost as much as tracing.
+    origins = np.repeat(positions + offset * normals, upper.sum(1), axis=0)
+    return cos, upper, origins, np.take(dirs, np.nonzero(upper)[1], axis=0)
+
+
+def direction_jobs(assignment: np.ndarray, count: int, block: int = 2048) -> list[tuple[int, np.ndarray]]:
+    """Work items ``(set index, vertex rows)``: the vertices of each set, in blocks of ~``block``."""
+    jobs = []
+    for s in range(count):
+        rows = np.nonzero(assignment == s)[0]
+        jobs += [(s, part) for part in np.array_split(rows, max(1, len(rows) // block)) if len(part)]
+    return jobs
 
 
 def vertex_transfer(
@@ -110,12 +139,7 @@ def vertex_transfer(
     Returns:
         diffuse ``(N, K)``, glossy ``(N, 3, K)`` (or ``None``), and the number of rays.
     """
-    cos = normals @ dirs.T  # (N, S)
-    upper = cos > 0
-    # Rays in vertex-major order (sorted by origin); repeat/take are much cheaper than
-    # fancy indexing, which otherwise costs as much as the tracing.
-    origins = np.repeat(positions + offset * normals, upper.sum(1), axis=0)
-    ray_dirs = np.take(dirs, np.nonzero(upper)[1], axis=0)
+    cos, upper, origins, ray_dirs = upper_hemisphere_rays(positions, normals, dirs, offset)
     missed = scene.run(origins, ray_dirs, query="OCCLUDED") == -1
     vis = np.zeros(cos.shape, np.float32)
     vis[upper] = missed * np.float32(weight)  # V = 0 below the tangent plane
@@ -153,7 +177,7 @@ def frame_transfer(
     """
     n = positions.shape[0]
     p = positions.reshape(-1, 3).astype(np.float32)
-    normals = vertex_normals(p.astype(np.float64), faces).astype(np.float32)
+    normals = grid_normals(positions).reshape(-1, 3).astype(np.float32)
     assignment = rng.integers(0, sets.dirs.shape[0], len(p))
     scene = embree_scene(p, faces)
     k = sets.basis.shape[-1]
@@ -171,10 +195,7 @@ def frame_transfer(
             glossy[rows] = g
         return rays
 
-    jobs = []
-    for s in range(sets.dirs.shape[0]):
-        rows = np.nonzero(assignment == s)[0]
-        jobs += [(s, part) for part in np.array_split(rows, max(1, len(rows) // 2048)) if len(part)]
+    jobs = direction_jobs(assignment, sets.dirs.shape[0])
     # One BLAS thread per worker: OpenBLAS's own threads would fight ours for the cores.
     with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(max(threads, 1)) as pool:
         rays = sum(pool.map(block, jobs))

@@ -31,10 +31,16 @@ class Section:
 
 
 SECTIONS = (
-    Section("prt", "DeepPRT: deep precomputed radiance transfer for deformable objects", "deepprt.txt"),
-    Section("ndr", "NDR: neural direct-illumination renderer", "ndr-neural-direct-illumination.txt"),
+    Section(
+        "prt", "DeepPRT: deep precomputed radiance transfer for deformable objects", "deepprt.txt"
+    ),
+    Section(
+        "ndr", "NDR: neural direct-illumination renderer", "ndr-neural-direct-illumination.txt"
+    ),
     Section("metaballs", "Image-space metaballs (pix2pix)", "image-space-metaballs.txt"),
-    Section("simplification", "Appearance-driven simplification", "appearance-driven-simplification.txt"),
+    Section(
+        "simplification", "Appearance-driven simplification", "appearance-driven-simplification.txt"
+    ),
 )
 
 
@@ -58,9 +64,16 @@ def _format_value(v: object) -> str:
 
 
 def _table_html(frame: pd.DataFrame) -> str:
-    return frame.to_html(index=False, border=0, classes="table", formatters=None, float_format=None,
-                         na_rep="&ndash;", escape=False, justify="left").replace(
-        "<td>nan</td>", "<td>&ndash;</td>")
+    return frame.to_html(
+        index=False,
+        border=0,
+        classes="table",
+        formatters=None,
+        float_format=None,
+        na_rep="&ndash;",
+        escape=False,
+        justify="left",
+    ).replace("<td>nan</td>", "<td>&ndash;</td>")
 
 
 def _render_table(frame: pd.DataFrame) -> str:
@@ -68,7 +81,9 @@ def _render_table(frame: pd.DataFrame) -> str:
     if set(TIDY_COLUMNS) <= set(frame.columns):
         index = [c for c in frame.columns if c not in ("method", "metric", "value")]
         # Metrics with one value per frame are averaged; the CSV keeps every row.
-        wide = frame.pivot_table(index=index, columns="metric", values="value", aggfunc="mean", sort=False)
+        wide = frame.pivot_table(
+            index=index, columns="metric", values="value", aggfunc="mean", sort=False
+        )
         frame = wide.reset_index()
         frame.columns.name = None
     return _table_html(frame.map(_format_value))
@@ -108,7 +123,11 @@ def build_report(
                 "source": section.paper,
                 "ran": bool(own_tables or own_figures),
                 "tables": [
-                    {"caption": t.stem.replace("_", " "), "path": str(t), "html": _render_table(io.read_csv(t))}
+                    {
+                        "caption": t.stem.replace("_", " "),
+                        "path": str(t),
+                        "html": _render_table(io.read_csv(t)),
+                    }
                     for t in own_tables
                 ],
                 "figures": [

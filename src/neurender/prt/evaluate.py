@@ -1,0 +1,259 @@
+"""DeepPRT evaluation (paper 4.1, Table 1, Figs. 5 and 7): rendered appearance and timings.
+
+Every frame is rendered from a fixed camera (:mod:`neurender.prt.render`) with the
+ground-truth transfer and with each model's prediction, on the same geometry. Images are
+divided by the ground-truth image's maximum (so they lie in [0, 1]) and compared inside
+the object's silhouette: SSIM (:mod:`neurender.metrics`) and L2-RGB (mean squared error).
+Coefficient errors: L1 of the transfer, and ``accuracy = 1 - sum |pred - gt| / sum |gt|``
+(our reading of the paper's undefined "accuracy": one minus the relative L1 error).
+
+Test frames are scored against their clean reference (``reference_directions``); the
+training-quality ground truth of the same frames (``directions``, independently sampled) is
+scored too, as the noise floor.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from neurender import io, metrics
+from neurender.prt import render, transfer
+from neurender.prt.data import ray_offset, read_sh_light, stable_seed
+from neurender.prt.geometry_image import grid_faces
+from neurender.prt.model import MATERIALS, DeepPRT, MoMoPRT, Split, load_split
+
+log = logging.getLogger(__name__)
+
+
+def _radiance(material: str, coeffs: np.ndarray, positions: np.ndarray, light: np.ndarray, eye, exponent):
+    """Per-vertex radiance ``(n*n, 3)`` of one frame's coefficients ``(C, n, n)``."""
+    n = positions.shape[0]
+    c = np.moveaxis(coeffs, 0, -1)
+    if material == "diffuse":
+        return render.diffuse_radiance(c.reshape(n * n, -1), light)
+    return render.glossy_radiance(c.reshape(n, n, 3, -1), positions, eye, exponent)
+
+
+def compare_images(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
+    """SSIM and L2-RGB of two ``(3, H, W)`` radiance images inside ``mask`` ``(1, H, W)``.
+
+    Both are divided by the ground truth's maximum. Returns the scores and the SSIM and L1
+    maps ``(H, W)`` (for Fig. 7).
+    """
+    scale = max(float(gt.max()), 1e-12)
+    a = torch.from_numpy(np.ascontiguousarray(gt[None] / scale)).double()
+    b = torch.from_numpy(np.ascontiguousarray(pred[None] / scale)).double().clamp(0, None)
+    m = torch.from_numpy(mask[None]).double()
+    ssim_map = metrics.ssim_map(a, b)
+    return {
+        "ssim": float(metrics.ssim(a, b, m)),
+        "l2rgb": float(metrics.l2(a, b, m)),
+        "ssim_map": (ssim_map.mean(1)[0] * m[0, 0]).numpy(),
+        "l1_map": ((a - b).abs().mean(1)[0] * m[0, 0]).numpy(),
+    }
+
+
+def evaluate_object(
+    name: str,
+    seq_path: str,
+    dirs: dict[str, str],
+    manifests: dict[str, str],
+    checkpoints: dict[str, str],
+    momoprt: dict[str, str],
+    light_csv: str,
+    cfg: dict,
+    threads: int,
+    metrics_out: str,
+    frames_out: str,
+    figure_out: str,
+) -> None:
+    """Score DeepPRT, MoMoPRT and the noise floor on val and test frames of one object."""
+    seq = io.load_npz(seq_path)
+    n_bands = cfg["n_bands"]
+    light = read_sh_light(light_csv)[: n_bands**2]
+    nets = {m: DeepPRT(checkpoints[m], cfg["device"], threads) for m in MATERIALS}
+    linear = {m: MoMoPRT.load(momoprt[m]) for m in MATERIALS}
+    rows: list[dict] = []
+    figure_inputs = None
+    for split in ("val", "test"):
+        data = load_split(dirs[split], manifests[split], seq[f"{split}_params"], n_bands)
+        if split == "test":
+            test_data = data
+        preds = {("DeepPRT", m): nets[m].predict(data) for m in MATERIALS}
+        preds |= {("MoMoPRT", m): linear[m].predict(data) for m in MATERIALS}
+        if split == "test":
+            preds |= noise_floor_predictions(name, data, seq["test_positions"], light, cfg, threads)
+        extrapolated = seq["test_extrapolated"] if split == "test" else np.zeros(len(data.positions), bool)
+        camera_box = data.positions
+        for f in range(len(data.positions)):
+            raster = render.Raster(data.positions[f], cfg["render_resolution"], camera_box)
+            mask = raster.mask_image()
+            for material in MATERIALS:
+                gt_coeffs = data.targets(material)[f]
+                gt_img = raster.shade(
+                    _radiance(material, gt_coeffs, data.positions[f], light, raster.eye, cfg["glossy_exponent"])
+                )
+                for (model, mat), pred in preds.items():
+                    if mat != material:
+                        continue
+                    img = raster.shade(
+                        _radiance(material, pred[f], data.positions[f], light, raster.eye, cfg["glossy_exponent"])
+                    )
+                    scores = compare_images(gt_img, img, mask)
+                    l1 = float(np.abs(pred[f] - gt_coeffs).mean())
+                    accuracy = 1.0 - float(np.abs(pred[f] - gt_coeffs).sum() / np.abs(gt_coeffs).sum())
+                    for metric, value in (
+                        (f"ssim_{material}", scores["ssim"]),
+                        (f"l2rgb_{material}", scores["l2rgb"]),
+                        (f"l1_{material}", l1),
+                        (f"accuracy_{material}", accuracy),
+                    ):
+                        rows.append(
+                            {"method": "prt", "dataset": name, "model": model, "split": split, "frame": f,
+                             "extrapolated": bool(extrapolated[f]), "metric": metric, "value": value}
+                        )
+                    if split == "test" and f == int(np.argmax(extrapolated)):
+                        figure_inputs = figure_inputs or {}
+                        figure_inputs[(model, material)] = (gt_img, img, scores, mask)
+    frames = pd.DataFrame(rows)
+    io.write_csv(frames_out, frames)
+    timing = timing_rows(name, nets["diffuse"], test_data, light, cfg, threads, frames)
+    io.write_csv(metrics_out, pd.concat([aggregate(frames), timing], ignore_index=True))
+    prediction_figure(name, figure_inputs, figure_out)
+
+
+def noise_floor_predictions(name, data: Split, positions, light, cfg, threads) -> dict:
+    """Training-quality ground truth of the test frames, sampled independently of the reference."""
+    faces = grid_faces(positions.shape[1])
+    offset = ray_offset(positions[0], cfg["ray_offset"])
+    diffuse, glossy = [], []
+    for f in range(len(positions)):
+        rng = np.random.default_rng(stable_seed(cfg["seed"], name, "eval-noise", f))
+        sets = transfer.DirectionSets(cfg["direction_sets"], cfg["directions"], cfg["n_bands"], rng)
+        _, d, g, _ = transfer.frame_transfer(positions[f], faces, sets, rng, offset, light, threads)
+        diffuse.append(np.moveaxis(d, -1, 0))
+        glossy.append(np.moveaxis(g.reshape(*g.shape[:2], -1), -1, 0))
+    label = f"ground truth {cfg['directions']} dirs"
+    return {(label, "diffuse"): np.stack(diffuse), (label, "glossy"): np.stack(glossy)}
+
+
+def aggregate(frames: pd.DataFrame) -> pd.DataFrame:
+    """Mean per (dataset, model, split, metric), the extrapolated test subset, and worst SSIM."""
+    keys = ["method", "dataset", "model", "split", "metric"]
+    parts = [frames.groupby(keys, as_index=False)["value"].mean()]
+    extra = frames[frames["extrapolated"]].assign(split="test (extrapolated)")
+    if len(extra):
+        parts.append(extra.groupby(keys, as_index=False)["value"].mean())
+    worst = frames[frames["metric"].str.startswith("ssim")]
+    worst = worst.groupby(keys, as_index=False)["value"].min()
+    parts.append(worst.assign(metric=worst["metric"] + "_worst"))
+    return pd.concat(parts, ignore_index=True)
+
+
+def timing_rows(name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd.DataFrame) -> pd.DataFrame:
+    """Inference vs ray-tracing time, and the equal-quality speed ratio.
+
+    The equal-quality ratio compares the network's time with that of the cheapest ray-traced
+    ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse
+    SSIM against the clean reference reaches the network's, on the first test frames.
+    """
+    positions = test.positions
+    n = positions.shape[1]
+    split = Split(positions[:1], test.normals[:1], None, None, None)
+    net.predict(split)  # warm-up
+    start = time.perf_counter()
+    reps = 5
+    for _ in range(reps):
+        net.predict(split)
+    net_s = (time.perf_counter() - start) / reps
+
+    count = min(cfg["noise_floor_frames"], len(positions))
+    deep = frames[(frames.model == "DeepPRT") & (frames.split == "test") & (frames.metric == "ssim_diffuse")]
+    target = float(deep[deep.frame < count].value.mean())
+    faces = grid_faces(n)
+    offset = ray_offset(positions[0], cfg["ray_offset"])
+    rows = []
+
+    def add(metric, value, model="DeepPRT"):
+        rows.append({"method": "prt", "dataset": name, "model": model, "split": "timing", "metric": metric,
+                     "value": float(value)})
+
+    add("inference_ms_per_frame", 1000 * net_s)
+    reference = None
+    equal = math.nan
+    for directions in sorted(cfg["equal_quality_directions"]) + [cfg["reference_directions"]]:
+        ssims, seconds = [], []
+        for f in range(count):
+            rng = np.random.default_rng(stable_seed(cfg["seed"], name, "equal-quality", f, directions))
+            t0 = time.perf_counter()
+            sets = transfer.DirectionSets(cfg["direction_sets"], directions, cfg["n_bands"], rng)
+            _, d, _, _ = transfer.frame_transfer(positions[f], faces, sets, rng, offset, None, threads)
+            seconds.append(time.perf_counter() - t0)
+            if directions == cfg["reference_directions"]:
+                continue
+            ssims.append(_diffuse_ssim(positions[f], d, test.diffuse[f], cfg["render_resolution"], light))
+        if directions == cfg["reference_directions"]:
+            reference = np.mean(seconds)
+            continue
+        add(f"gt_seconds_per_frame_{directions}_dirs", np.mean(seconds), "ground truth")
+        add(f"gt_ssim_{directions}_dirs", np.mean(ssims), "ground truth")
+        if math.isnan(equal) and np.mean(ssims) >= target:
+            equal = np.mean(seconds)
+    add("gt_seconds_per_frame_reference", reference, "ground truth")
+    add("speedup_vs_reference_gt", reference / net_s)
+    add("equal_quality_ssim_target", target)
+    add("equal_quality_speedup", equal / net_s if not math.isnan(equal) else math.nan)
+    return pd.DataFrame(rows)
+
+
+def _diffuse_ssim(positions, diffuse, reference, resolution, light) -> float:
+    """Diffuse-render SSIM of a transfer estimate ``(n, n, K)`` against the reference ``(n, n, K)``."""
+    ref = reference
+    raster = render.Raster(positions, resolution)
+    n = positions.shape[0]
+    gt = raster.shade(render.diffuse_radiance(ref.reshape(n * n, -1), light))
+    img = raster.shade(render.diffuse_radiance(diffuse.reshape(n * n, -1), light))
+    return compare_images(gt, img, raster.mask_image())["ssim"]
+
+
+def prediction_figure(name: str, panels: dict | None, out: str) -> None:
+    """GT | prediction | SSIM map | L1 map per model and material (paper Fig. 7)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not panels:
+        raise ValueError(f"{name}: no test frame to draw")
+    keys = [k for k in panels if not k[0].startswith("ground truth")] + [
+        k for k in panels if k[0].startswith("ground truth")
+    ]
+    fig, axes = plt.subplots(len(keys), 4, figsize=(9, 2.4 * len(keys)), squeeze=False)
+    for row, key in zip(axes, keys, strict=True):
+        gt, img, scores, mask = panels[key]
+        scale = gt.max()
+        show = [np.moveaxis(np.clip(gt / scale, 0, 1), 0, -1) ** (1 / 2.2),
+                np.moveaxis(np.clip(img / scale, 0, 1), 0, -1) ** (1 / 2.2)]
+        row[0].imshow(show[0])
+        row[0].set_title(f"{key[1]}: ground truth", fontsize=7)
+        row[1].imshow(show[1])
+        row[1].set_title(f"{key[0]} (SSIM {scores['ssim']:.3f})", fontsize=7)
+        row[2].imshow(scores["ssim_map"], vmin=0.5, vmax=1, cmap="viridis")
+        row[2].set_title("SSIM map", fontsize=7)
+        im = row[3].imshow(scores["l1_map"], vmin=0, vmax=0.1, cmap="magma")
+        row[3].set_title("L1 map", fontsize=7)
+        for ax in row:
+            ax.axis("off")
+        fig.colorbar(im, ax=row[3], fraction=0.046)
+    fig.suptitle(f"DeepPRT: {name}, an extrapolated test frame vs its clean reference")
+    fig.tight_layout()
+    with io.atomic_path(out) as tmp:
+        fig.savefig(tmp, dpi=90)
+    plt.close(fig)

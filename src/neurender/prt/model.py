@@ -1,0 +1,264 @@
+"""DeepPRT model (paper 3.2) and the MoMoPRT linear baseline (Schneider et al. 2017).
+
+Inputs are the position and normal images ``(B, 6, n, n)``: P mapped to [-1, 1] by the
+training set's bounding box, N as unit vectors. Targets are the transfer images, diffuse
+``(B, K, n, n)`` or glossy ``(B, 3 K, n, n)`` (colour-major, as the EXR channels), mapped
+per channel to [0, 1] by an affine normalisation stored with the checkpoint (with a 10%
+margin on both sides so extrapolated shapes are not clipped by the sigmoid).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+from torch.utils.data import TensorDataset
+
+from neurender import io, train
+from neurender.nn.unet import ResUNet, count_parameters
+from neurender.prt.data import read_frame
+
+log = logging.getLogger(__name__)
+
+MATERIALS = ("diffuse", "glossy")
+
+
+@dataclasses.dataclass
+class Split:
+    """One split of one object, loaded in memory.
+
+    Attributes:
+        positions, normals: ``(F, n, n, 3)`` float32.
+        diffuse: ``(F, n, n, K)``; glossy: ``(F, n, n, 3, K)`` float32.
+        params: ``(F, P)`` shape parameters from the sequence file.
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    diffuse: np.ndarray
+    glossy: np.ndarray
+    params: np.ndarray
+
+    def targets(self, material: str) -> np.ndarray:
+        """``(F, C, n, n)`` target images of a material."""
+        if material == "diffuse":
+            t = self.diffuse
+        elif material == "glossy":
+            t = self.glossy.reshape(*self.glossy.shape[:3], -1)
+        else:
+            raise ValueError(f"material {material!r}: expected one of {MATERIALS}")
+        return np.ascontiguousarray(np.moveaxis(t, -1, 1))
+
+
+def load_split(frames_dir: str | Path, manifest: str | Path, params: np.ndarray, n_bands: int) -> Split:
+    """Read every frame EXR listed in a split's manifest."""
+    files = io.read_csv(manifest, ["frame", "file"]).sort_values("frame")["file"]
+    frames = [read_frame(Path(frames_dir) / f, n_bands) for f in files]
+    if len(frames) != len(params):
+        raise ValueError(f"{manifest} lists {len(frames)} frames but the sequence has {len(params)}")
+    return Split(*(np.stack([fr[k] for fr in frames]) for k in ("P", "N", "T", "G")), params=params)
+
+
+@dataclasses.dataclass
+class Normalisation:
+    """Affine maps of inputs and targets; ``x_normalised = (x - offset) / scale``."""
+
+    p_offset: np.ndarray  # (3,)
+    p_scale: np.ndarray  # (3,)
+    t_offset: np.ndarray  # (C,)
+    t_scale: np.ndarray  # (C,)
+
+    @classmethod
+    def fit(cls, split: Split, material: str, margin: float = 0.1) -> Normalisation:
+        p = split.positions.reshape(-1, 3)
+        lo, hi = p.min(0), p.max(0)
+        t = split.targets(material)
+        tlo, thi = t.min(axis=(0, 2, 3)), t.max(axis=(0, 2, 3))
+        span = np.maximum(thi - tlo, 1e-6)
+        return cls(
+            p_offset=(lo + hi) / 2,
+            p_scale=np.maximum(hi - lo, 1e-6).max() / 2 * np.ones(3, np.float32),
+            t_offset=(tlo - margin * span).astype(np.float32),
+            t_scale=((1 + 2 * margin) * span).astype(np.float32),
+        )
+
+    def inputs(self, split: Split) -> np.ndarray:
+        """``(F, 6, n, n)`` float32 network inputs."""
+        p = (split.positions - self.p_offset) / self.p_scale
+        return np.ascontiguousarray(np.moveaxis(np.concatenate([p, split.normals], -1), -1, 1), np.float32)
+
+    def encode(self, targets: np.ndarray) -> np.ndarray:
+        return ((targets - self.t_offset[:, None, None]) / self.t_scale[:, None, None]).astype(np.float32)
+
+    def decode(self, values: np.ndarray) -> np.ndarray:
+        return values * self.t_scale[:, None, None] + self.t_offset[:, None, None]
+
+    def state(self) -> dict[str, np.ndarray]:
+        return dataclasses.asdict(self)
+
+
+def build_network(out_channels: int, widths: list[int], blocks: int) -> ResUNet:
+    return ResUNet(6, out_channels, list(widths), blocks)
+
+
+def _l1_loss(model: torch.nn.Module, batch) -> tuple[torch.Tensor, dict[str, float]]:
+    x, y = batch
+    return torch.nn.functional.l1_loss(model(x), y), {}
+
+
+def train_deepprt(
+    train_split: Split, val_split: Split, material: str, cfg: dict, threads: int, checkpoint: str, log_csv: str
+) -> None:
+    """Train one DeepPRT network (one object, one material) with the shared loop."""
+    torch.manual_seed(cfg["seed"])
+    norm = Normalisation.fit(train_split, material)
+    make = lambda s: TensorDataset(  # noqa: E731
+        torch.from_numpy(norm.inputs(s)), torch.from_numpy(norm.encode(s.targets(material)))
+    )
+    out_channels = train_split.targets(material).shape[1]
+    model = build_network(out_channels, cfg["widths"], cfg["blocks"])
+    config = train.TrainConfig(
+        epochs=cfg["epochs"],
+        batch_size=cfg["batch_size"],
+        lr=cfg["lr"],
+        lr_schedule=cfg["lr_schedule"],
+        seed=cfg["seed"],
+        device=cfg["device"],
+        threads=threads,
+    )
+    start = time.perf_counter()
+    train.fit(
+        model,
+        make(train_split),
+        make(val_split),
+        _l1_loss,
+        config,
+        checkpoint,
+        log_csv,
+        extra_state={
+            "normalisation": norm.state(),
+            "widths": list(cfg["widths"]),
+            "blocks": cfg["blocks"],
+            "out_channels": out_channels,
+            "material": material,
+            "parameters": count_parameters(model),
+            "train_seconds": None,
+        },
+    )
+    log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
+
+
+class DeepPRT:
+    """A trained network with its normalisation, for inference on numpy splits."""
+
+    def __init__(self, checkpoint: str | Path, device: str = "auto", threads: int = 1):
+        state = train.load_checkpoint(checkpoint)
+        extra = state["extra"]
+        self.device = train.resolve_device(device, threads)
+        self.model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
+        self.model.load_state_dict(state["model"])
+        self.model.to(self.device).eval()
+        self.norm = Normalisation(**{k: np.asarray(v) for k, v in extra["normalisation"].items()})
+        self.parameters = count_parameters(self.model)
+
+    @torch.no_grad()
+    def predict(self, split: Split, batch: int = 8) -> np.ndarray:
+        """``(F, C, n, n)`` transfer in physical units."""
+        x = torch.from_numpy(self.norm.inputs(split))
+        out = [self.model(x[i : i + batch].to(self.device)).cpu().numpy() for i in range(0, len(x), batch)]
+        return self.norm.decode(np.concatenate(out))
+
+
+# ---------------------------------------------------------------- MoMoPRT
+
+
+@dataclasses.dataclass
+class MoMoPRT:
+    """Affine map from shape parameters to every texel's transfer (ridge regression).
+
+    Attributes:
+        weights: ``(P + 1, C n n)`` (last row the bias).
+        basis, mean: PCA basis ``(P, 3 n n)`` and mean ``(3 n n,)`` of training position
+            images when the object has no blendshapes (empty otherwise).
+        ridge: the regularisation chosen on the validation split.
+    """
+
+    weights: np.ndarray
+    basis: np.ndarray
+    mean: np.ndarray
+    ridge: float
+    shape: tuple[int, int, int]
+
+    def features(self, split: Split) -> np.ndarray:
+        if self.basis.size:
+            x = split.positions.reshape(len(split.positions), -1) - self.mean
+            return x @ self.basis.T
+        return split.params
+
+    def predict(self, split: Split) -> np.ndarray:
+        """``(F, C, n, n)`` transfer."""
+        f = self.features(split)
+        return (np.column_stack([f, np.ones(len(f))]) @ self.weights).reshape(len(f), *self.shape)
+
+    def save(self, path: str | Path) -> None:
+        io.save_npz(path, weights=self.weights, basis=self.basis, mean=self.mean, ridge=np.array(self.ridge),
+                    shape=np.array(self.shape))
+
+    @classmethod
+    def load(cls, path: str | Path) -> MoMoPRT:
+        d = io.load_npz(path)
+        return cls(d["weights"], d["basis"], d["mean"], float(d["ridge"]), tuple(int(s) for s in d["shape"]))
+
+    @property
+    def parameters(self) -> int:
+        return int(self.weights.size + self.basis.size + self.mean.size)
+
+
+def fit_momoprt(
+    train_split: Split, val_split: Split, material: str, use_params: bool, pca_components: int,
+    ridges: list[float],
+) -> MoMoPRT:
+    """Regularised least squares ``min ||X W - T||^2 + lambda ||W||^2`` (bias unregularised).
+
+    Shape parameters are the blendshape weights when ``use_params``, else the leading PCA
+    coefficients of the training position images. ``lambda`` (relative to the mean
+    diagonal of ``X^T X``) is picked from ``ridges`` by validation L1.
+    """
+    t = train_split.targets(material)
+    shape = t.shape[1:]
+    if use_params:
+        basis = mean = np.zeros(0)
+    else:
+        x = train_split.positions.reshape(len(t), -1).astype(np.float64)
+        mean = x.mean(0)
+        _, _, vt = np.linalg.svd(x - mean, full_matrices=False)
+        basis = vt[: min(pca_components, len(t) - 1)]
+    model = MoMoPRT(np.zeros(0), basis, mean, 0.0, shape)
+    f = model.features(train_split).astype(np.float64)
+    x = np.column_stack([f, np.ones(len(f))])
+    gram = x.T @ x
+    rhs = x.T @ t.reshape(len(t), -1).astype(np.float64)
+    scale = np.trace(gram[:-1, :-1]) / max(len(gram) - 1, 1)
+    best = None
+    for ridge in ridges:
+        reg = np.eye(len(gram)) * ridge * scale
+        reg[-1, -1] = 0.0
+        w = np.linalg.solve(gram + reg, rhs)
+        candidate = MoMoPRT(w.astype(np.float32), basis, mean, ridge, shape)
+        err = float(np.abs(candidate.predict(val_split) - val_split.targets(material)).mean())
+        if best is None or err < best[0]:
+            best = (err, candidate)
+    return best[1]
+
+
+def split_params(seq: dict[str, np.ndarray], split: str) -> np.ndarray:
+    return seq[f"{split}_params"].astype(np.float64)
+
+
+def history_table(log_csv: str | Path) -> pd.DataFrame:
+    return io.read_csv(log_csv, ["epoch", "split", "metric", "value"])

@@ -1,0 +1,83 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from neurender import io, sh
+from neurender.prt import data
+
+CFG = {
+    "seed": 5,
+    "resolution": 8,
+    "source_vertices": 300,
+    "frames": {"train": 3, "val": 1, "test": 2},
+    "n_bands": 4,
+    "direction_sets": 2,
+    "ray_offset": 1e-3,
+    "directions": 16,
+    "probe_height": 16,
+    "noise_floor_frames": 1,
+}
+
+
+@pytest.fixture(scope="module")
+def head(tmp_path_factory):
+    d = tmp_path_factory.mktemp("head")
+    data.make_probe("sky", None, CFG, d / "sky.exr", d / "sky_sh.csv")
+    data.make_geometry_image("head", None, CFG, d / "gim.npz", d / "gim.csv")
+    data.make_sequence("head", d / "gim.npz", CFG, d / "seq.npz")
+    return d
+
+
+def test_probe_sh_matches_projection(head):
+    img = np.stack([io.read_exr(head / "sky.exr")[c] for c in "RGB"], -1)
+    np.testing.assert_allclose(
+        data.read_sh_light(head / "sky_sh.csv"), sh.project_latlong(img, 4), rtol=1e-5
+    )
+
+
+def test_sequence_splits_and_extrapolation(head):
+    seq = io.load_npz(head / "seq.npz")
+    assert seq["train_positions"].shape == (3, 8, 8, 3)
+    assert seq["test_params"].shape == (2, 7)
+    assert seq["test_params"][seq["test_extrapolated"]].max() > 1.0  # beyond the training range
+    assert seq["train_params"].max() <= 1.0
+    assert not set(seq["train_frame"]) & set(seq["val_frame"])
+
+
+def test_transfer_frames_are_deterministic_and_complete(head):
+    for run in ("a", "b"):
+        data.compute_transfer(
+            "head",
+            head / "seq.npz",
+            head / "sky_sh.csv",
+            "test",
+            16,
+            CFG,
+            2,
+            head / run,
+            head / f"{run}.csv",
+        )
+    manifest = pd.read_csv(head / "a.csv")
+    assert list(manifest.frame) == [0, 1] and (manifest.rays > 0).all()
+    assert manifest.extrapolated.tolist() == [False, True]
+    a = data.read_frame(head / "a" / "frame_0001.exr", 4)
+    b = data.read_frame(head / "b" / "frame_0001.exr", 4)
+    for key in ("P", "N", "T", "G"):
+        np.testing.assert_array_equal(a[key], b[key])
+    assert a["T"].shape == (8, 8, 16) and a["G"].shape == (8, 8, 3, 16)
+    np.testing.assert_allclose(a["P"], io.load_npz(head / "seq.npz")["test_positions"][1])
+
+
+def test_missing_light_file_is_named(head):
+    with pytest.raises(FileNotFoundError, match="nolight.csv"):
+        data.compute_transfer(
+            "head",
+            head / "seq.npz",
+            head / "nolight.csv",
+            "test",
+            16,
+            CFG,
+            1,
+            head / "x",
+            head / "x.csv",
+        )
