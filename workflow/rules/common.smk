@@ -7,6 +7,7 @@ validate(config, schema="../schemas/config.schema.yaml")
 BUILTIN_OBJECTS = ("head", "cloth", "creature")
 BUILTIN_PROBES = ("sky", "sunset", "studio")
 PRT_SPLITS = ("train", "val", "test")
+PRT_MATERIALS = ("diffuse", "glossy")
 
 
 def _check_names(kind, names, builtins, user):
@@ -28,6 +29,7 @@ wildcard_constraints:
     object="[A-Za-z0-9_]+",
     probe="[A-Za-z0-9_]+",
     split="train|val|test",
+    material="diffuse|glossy",
 
 
 def prt_params():
@@ -51,12 +53,14 @@ def prt_all_objects():
 
 
 def report_tables():
-    return expand("results/prt/{table}.csv", table=("data", "noise_floor", "benchmark"))
+    tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
+    return expand("results/prt/{table}.csv", table=tables)
 
 
 def report_figures():
-    frames = expand("results/prt/figures/{object}_frames.png", object=config["prt"]["objects"])
-    return frames + ["results/prt/figures/light_probes.png"]
+    objects = config["prt"]["objects"]
+    frames = expand("results/prt/figures/{object}_{kind}.png", object=objects, kind=("prediction", "frames"))
+    return frames + ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
 
 
 def prt_subset(*keys):
@@ -68,3 +72,20 @@ def prt_directions(wildcards):
     """Test frames get the clean reference's direction count (paper scale: >= 4x)."""
     key = "reference_directions" if wildcards.split == "test" else "directions"
     return config["prt"][key]
+
+
+def prt_split_inputs(wildcards):
+    """Sequence file, frame folders and manifests of every split of one object."""
+    base = f"results/prt/{wildcards.object}"
+    inputs = {"seq": f"{base}/sequence.npz"}
+    for split in PRT_SPLITS:
+        inputs[f"{split}_dir"] = f"{base}/{split}"
+        inputs[f"{split}_manifest"] = f"{base}/{split}_manifest.csv"
+    return inputs
+
+
+def prt_model_params():
+    """What the model rules depend on: the model subtree and the data keys they read."""
+    data_keys = ("n_bands", "directions", "reference_directions", "direction_sets", "ray_offset")
+    data_keys += ("noise_floor_frames", "resolution", "frames")
+    return {"device": config["device"], **prt_subset(*data_keys), **config["prt_model"]}

@@ -52,9 +52,14 @@ def stage_vs_embree(
     normals = grid_normals(positions).reshape(-1, 3).astype(np.float32)
     assignment = rng.integers(0, sets.dirs.shape[0], len(p))
     jobs = transfer.direction_jobs(assignment, sets.dirs.shape[0])
-    rays_of = [transfer.upper_hemisphere_rays(p[rows], normals[rows], sets.dirs[s], offset) for s, rows in jobs]
+    rays_of = [
+        transfer.upper_hemisphere_rays(p[rows], normals[rows], sets.dirs[s], offset)
+        for s, rows in jobs
+    ]
     # Sorted by origin (vertex index), the most coherent order for Embree.
-    vertex = np.concatenate([np.repeat(rows, r[1].sum(1)) for (_, rows), r in zip(jobs, rays_of, strict=True)])
+    vertex = np.concatenate(
+        [np.repeat(rows, r[1].sum(1)) for (_, rows), r in zip(jobs, rays_of, strict=True)]
+    )
     order = np.argsort(vertex, kind="stable")
     origins = np.ascontiguousarray(np.concatenate([r[2] for r in rays_of])[order])
     dirs = np.ascontiguousarray(np.concatenate([r[3] for r in rays_of])[order])

@@ -205,6 +205,7 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
         train_frame=train_idx,
         val_frame=val_idx,
         test_extrapolated=extrapolated,
+        kind=np.array(kind),
     )
 
 

@@ -32,7 +32,9 @@ from neurender.prt.model import MATERIALS, DeepPRT, MoMoPRT, Split, load_split
 log = logging.getLogger(__name__)
 
 
-def _radiance(material: str, coeffs: np.ndarray, positions: np.ndarray, light: np.ndarray, eye, exponent):
+def _radiance(
+    material: str, coeffs: np.ndarray, positions: np.ndarray, light: np.ndarray, eye, exponent
+):
     """Per-vertex radiance ``(n*n, 3)`` of one frame's coefficients ``(C, n, n)``."""
     n = positions.shape[0]
     c = np.moveaxis(coeffs, 0, -1)
@@ -90,7 +92,9 @@ def evaluate_object(
         preds |= {("MoMoPRT", m): linear[m].predict(data) for m in MATERIALS}
         if split == "test":
             preds |= noise_floor_predictions(name, data, seq["test_positions"], light, cfg, threads)
-        extrapolated = seq["test_extrapolated"] if split == "test" else np.zeros(len(data.positions), bool)
+        extrapolated = (
+            seq["test_extrapolated"] if split == "test" else np.zeros(len(data.positions), bool)
+        )
         camera_box = data.positions
         for f in range(len(data.positions)):
             raster = render.Raster(data.positions[f], cfg["render_resolution"], camera_box)
@@ -98,17 +102,33 @@ def evaluate_object(
             for material in MATERIALS:
                 gt_coeffs = data.targets(material)[f]
                 gt_img = raster.shade(
-                    _radiance(material, gt_coeffs, data.positions[f], light, raster.eye, cfg["glossy_exponent"])
+                    _radiance(
+                        material,
+                        gt_coeffs,
+                        data.positions[f],
+                        light,
+                        raster.eye,
+                        cfg["glossy_exponent"],
+                    )
                 )
                 for (model, mat), pred in preds.items():
                     if mat != material:
                         continue
                     img = raster.shade(
-                        _radiance(material, pred[f], data.positions[f], light, raster.eye, cfg["glossy_exponent"])
+                        _radiance(
+                            material,
+                            pred[f],
+                            data.positions[f],
+                            light,
+                            raster.eye,
+                            cfg["glossy_exponent"],
+                        )
                     )
                     scores = compare_images(gt_img, img, mask)
                     l1 = float(np.abs(pred[f] - gt_coeffs).mean())
-                    accuracy = 1.0 - float(np.abs(pred[f] - gt_coeffs).sum() / np.abs(gt_coeffs).sum())
+                    accuracy = 1.0 - float(
+                        np.abs(pred[f] - gt_coeffs).sum() / np.abs(gt_coeffs).sum()
+                    )
                     for metric, value in (
                         (f"ssim_{material}", scores["ssim"]),
                         (f"l2rgb_{material}", scores["l2rgb"]),
@@ -116,8 +136,16 @@ def evaluate_object(
                         (f"accuracy_{material}", accuracy),
                     ):
                         rows.append(
-                            {"method": "prt", "dataset": name, "model": model, "split": split, "frame": f,
-                             "extrapolated": bool(extrapolated[f]), "metric": metric, "value": value}
+                            {
+                                "method": "prt",
+                                "dataset": name,
+                                "model": model,
+                                "split": split,
+                                "frame": f,
+                                "extrapolated": bool(extrapolated[f]),
+                                "metric": metric,
+                                "value": value,
+                            }
                         )
                     if split == "test" and f == int(np.argmax(extrapolated)):
                         figure_inputs = figure_inputs or {}
@@ -157,7 +185,9 @@ def aggregate(frames: pd.DataFrame) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
-def timing_rows(name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd.DataFrame) -> pd.DataFrame:
+def timing_rows(
+    name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd.DataFrame
+) -> pd.DataFrame:
     """Inference vs ray-tracing time, and the equal-quality speed ratio.
 
     The equal-quality ratio compares the network's time with that of the cheapest ray-traced
@@ -175,15 +205,25 @@ def timing_rows(name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd
     net_s = (time.perf_counter() - start) / reps
 
     count = min(cfg["noise_floor_frames"], len(positions))
-    deep = frames[(frames.model == "DeepPRT") & (frames.split == "test") & (frames.metric == "ssim_diffuse")]
+    deep = frames[
+        (frames.model == "DeepPRT") & (frames.split == "test") & (frames.metric == "ssim_diffuse")
+    ]
     target = float(deep[deep.frame < count].value.mean())
     faces = grid_faces(n)
     offset = ray_offset(positions[0], cfg["ray_offset"])
     rows = []
 
     def add(metric, value, model="DeepPRT"):
-        rows.append({"method": "prt", "dataset": name, "model": model, "split": "timing", "metric": metric,
-                     "value": float(value)})
+        rows.append(
+            {
+                "method": "prt",
+                "dataset": name,
+                "model": model,
+                "split": "timing",
+                "metric": metric,
+                "value": float(value),
+            }
+        )
 
     add("inference_ms_per_frame", 1000 * net_s)
     reference = None
@@ -191,14 +231,20 @@ def timing_rows(name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd
     for directions in sorted(cfg["equal_quality_directions"]) + [cfg["reference_directions"]]:
         ssims, seconds = [], []
         for f in range(count):
-            rng = np.random.default_rng(stable_seed(cfg["seed"], name, "equal-quality", f, directions))
+            rng = np.random.default_rng(
+                stable_seed(cfg["seed"], name, "equal-quality", f, directions)
+            )
             t0 = time.perf_counter()
             sets = transfer.DirectionSets(cfg["direction_sets"], directions, cfg["n_bands"], rng)
-            _, d, _, _ = transfer.frame_transfer(positions[f], faces, sets, rng, offset, None, threads)
+            _, d, _, _ = transfer.frame_transfer(
+                positions[f], faces, sets, rng, offset, None, threads
+            )
             seconds.append(time.perf_counter() - t0)
             if directions == cfg["reference_directions"]:
                 continue
-            ssims.append(_diffuse_ssim(positions[f], d, test.diffuse[f], cfg["render_resolution"], light))
+            ssims.append(
+                _diffuse_ssim(positions[f], d, test.diffuse[f], cfg["render_resolution"], light)
+            )
         if directions == cfg["reference_directions"]:
             reference = np.mean(seconds)
             continue
@@ -214,7 +260,7 @@ def timing_rows(name, net: DeepPRT, test: Split, light, cfg, threads, frames: pd
 
 
 def _diffuse_ssim(positions, diffuse, reference, resolution, light) -> float:
-    """Diffuse-render SSIM of a transfer estimate ``(n, n, K)`` against the reference ``(n, n, K)``."""
+    """Diffuse-render SSIM of a transfer ``(n, n, K)`` against the reference ``(n, n, K)``."""
     ref = reference
     raster = render.Raster(positions, resolution)
     n = positions.shape[0]
@@ -239,8 +285,10 @@ def prediction_figure(name: str, panels: dict | None, out: str) -> None:
     for row, key in zip(axes, keys, strict=True):
         gt, img, scores, mask = panels[key]
         scale = gt.max()
-        show = [np.moveaxis(np.clip(gt / scale, 0, 1), 0, -1) ** (1 / 2.2),
-                np.moveaxis(np.clip(img / scale, 0, 1), 0, -1) ** (1 / 2.2)]
+        show = [
+            np.moveaxis(np.clip(gt / scale, 0, 1), 0, -1) ** (1 / 2.2),
+            np.moveaxis(np.clip(img / scale, 0, 1), 0, -1) ** (1 / 2.2),
+        ]
         row[0].imshow(show[0])
         row[0].set_title(f"{key[1]}: ground truth", fontsize=7)
         row[1].imshow(show[1])
@@ -257,3 +305,167 @@ def prediction_figure(name: str, panels: dict | None, out: str) -> None:
     with io.atomic_path(out) as tmp:
         fig.savefig(tmp, dpi=90)
     plt.close(fig)
+
+
+# Paper section 4.1: 11.8 M parameters, 500 frames, m = 16 (diffuse) or 48 (glossy).
+PAPER_WIDTHS = [64, 128, 256, 512]
+PAPER_FRAMES = 500
+
+
+def compression_rows(
+    objects: list[str],
+    checkpoints: dict,
+    weights: dict,
+    frame_dirs: dict,
+    n: int,
+    frames: int,
+    n_bands: int,
+) -> pd.DataFrame:
+    """Compression ratio r = frames n^2 m / parameters (ours and the paper's setting), bytes."""
+    from neurender.nn.unet import count_parameters
+    from neurender.prt.model import build_network
+
+    k = n_bands * n_bands
+    rows = []
+
+    def add(dataset, model, metric, value):
+        rows.append(
+            {
+                "method": "prt",
+                "dataset": dataset,
+                "model": model,
+                "split": "compression",
+                "metric": metric,
+                "value": float(value),
+            }
+        )
+
+    for material, m in (("diffuse", k), ("glossy", 3 * k)):
+        paper_params = count_parameters(build_network(m, PAPER_WIDTHS, 1))
+        for side in (256, 512):
+            add(
+                f"paper setting {side}^2, {PAPER_FRAMES} frames",
+                f"DeepPRT {material}",
+                "compression_ratio",
+                PAPER_FRAMES * side * side * m / paper_params,
+            )
+        add("paper setting", f"DeepPRT {material}", "parameters", paper_params)
+        for obj in objects:
+            state = torch.load(checkpoints[(obj, material)], map_location="cpu", weights_only=False)
+            params = state["extra"]["parameters"]
+            add(obj, f"DeepPRT {material}", "parameters", params)
+            add(obj, f"DeepPRT {material}", "compression_ratio", frames * n * n * m / params)
+            add(
+                obj,
+                f"DeepPRT {material}",
+                "network_file_bytes",
+                Path(weights[(obj, material)]).stat().st_size,
+            )
+            add(obj, f"DeepPRT {material}", "classic_store_float32_bytes", frames * n * n * m * 4)
+    for obj in objects:
+        exr_bytes = sum(f.stat().st_size for d in frame_dirs[obj] for f in Path(d).glob("*.exr"))
+        add(obj, "per-frame EXR (P, N, T, G; float16 transfer)", "bytes_on_disk", exr_bytes)
+    return pd.DataFrame(rows)
+
+
+def target_rows(
+    metrics_table: pd.DataFrame, ssim_target: float, speed_target: float
+) -> pd.DataFrame:
+    """The issue's targets for the default config, each stated as met or missed."""
+    rows = []
+
+    def get(dataset, model, split, metric):
+        sel = metrics_table[
+            (metrics_table.dataset == dataset)
+            & (metrics_table.model == model)
+            & (metrics_table.split == split)
+            & (metrics_table.metric == metric)
+        ]
+        return float(sel.value.iloc[0]) if len(sel) else math.nan
+
+    for dataset in sorted(metrics_table.dataset.unique()):
+        for material in MATERIALS:
+            metric = f"ssim_{material}"
+            for split in ("test", "test (extrapolated)"):
+                v = get(dataset, "DeepPRT", split, metric)
+                if not math.isnan(v):
+                    rows.append(
+                        {
+                            "object": dataset,
+                            "check": f"DeepPRT {metric} on {split} >= {ssim_target}",
+                            "measured": v,
+                            "met": v >= ssim_target,
+                        }
+                    )
+            deep, lin = (
+                get(dataset, "DeepPRT", "test", metric),
+                get(dataset, "MoMoPRT", "test", metric),
+            )
+            rows.append(
+                {
+                    "object": dataset,
+                    "check": f"DeepPRT {metric} on test above MoMoPRT's ({lin:.4f})",
+                    "measured": deep,
+                    "met": deep > lin,
+                }
+            )
+        v = get(dataset, "DeepPRT", "timing", "equal_quality_speedup")
+        rows.append(
+            {
+                "object": dataset,
+                "check": f"equal-quality speed ratio >= {speed_target}x",
+                "measured": v,
+                "met": bool(v >= speed_target),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def loss_figure(loss_csvs: dict, out: str) -> None:
+    """Training and validation L1 per object and material."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
+    for (obj, material), path in sorted(loss_csvs.items()):
+        log_table = io.read_csv(path, ["epoch", "split", "metric", "value"])
+        ax = axes[MATERIALS.index(material)]
+        for split, style in (("train", "--"), ("val", "-")):
+            sel = log_table[(log_table.split == split) & (log_table.metric == "loss")]
+            ax.semilogy(sel.epoch, sel.value, style, label=f"{obj} {split}")
+        ax.set_title(f"DeepPRT {material}: L1 (normalised targets)")
+        ax.set_xlabel("epoch")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    with io.atomic_path(out) as tmp:
+        fig.savefig(tmp, dpi=90)
+    plt.close(fig)
+
+
+def summarise_models(
+    objects,
+    metrics_csvs,
+    checkpoints,
+    weights,
+    loss_csvs,
+    frame_dirs,
+    cfg,
+    metrics_out,
+    compression_out,
+    targets_out,
+    loss_png,
+) -> None:
+    """Collect per-object results into the report's DeepPRT tables and the loss figure."""
+    table = pd.concat([io.read_csv(p) for p in metrics_csvs], ignore_index=True)
+    io.write_csv(metrics_out, table)
+    frames = cfg["frames"]["train"] + cfg["frames"]["val"]
+    io.write_csv(
+        compression_out,
+        compression_rows(
+            objects, checkpoints, weights, frame_dirs, cfg["resolution"], frames, cfg["n_bands"]
+        ),
+    )
+    io.write_csv(targets_out, target_rows(table, 0.97, 20.0))
+    loss_figure(loss_csvs, loss_png)

@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import torch
 from torch.utils.data import TensorDataset
 
@@ -55,12 +54,16 @@ class Split:
         return np.ascontiguousarray(np.moveaxis(t, -1, 1))
 
 
-def load_split(frames_dir: str | Path, manifest: str | Path, params: np.ndarray, n_bands: int) -> Split:
+def load_split(
+    frames_dir: str | Path, manifest: str | Path, params: np.ndarray, n_bands: int
+) -> Split:
     """Read every frame EXR listed in a split's manifest."""
     files = io.read_csv(manifest, ["frame", "file"]).sort_values("frame")["file"]
     frames = [read_frame(Path(frames_dir) / f, n_bands) for f in files]
     if len(frames) != len(params):
-        raise ValueError(f"{manifest} lists {len(frames)} frames but the sequence has {len(params)}")
+        raise ValueError(
+            f"{manifest} lists {len(frames)} frames but the sequence has {len(params)}"
+        )
     return Split(*(np.stack([fr[k] for fr in frames]) for k in ("P", "N", "T", "G")), params=params)
 
 
@@ -90,10 +93,14 @@ class Normalisation:
     def inputs(self, split: Split) -> np.ndarray:
         """``(F, 6, n, n)`` float32 network inputs."""
         p = (split.positions - self.p_offset) / self.p_scale
-        return np.ascontiguousarray(np.moveaxis(np.concatenate([p, split.normals], -1), -1, 1), np.float32)
+        return np.ascontiguousarray(
+            np.moveaxis(np.concatenate([p, split.normals], -1), -1, 1), np.float32
+        )
 
     def encode(self, targets: np.ndarray) -> np.ndarray:
-        return ((targets - self.t_offset[:, None, None]) / self.t_scale[:, None, None]).astype(np.float32)
+        return ((targets - self.t_offset[:, None, None]) / self.t_scale[:, None, None]).astype(
+            np.float32
+        )
 
     def decode(self, values: np.ndarray) -> np.ndarray:
         return values * self.t_scale[:, None, None] + self.t_offset[:, None, None]
@@ -112,7 +119,13 @@ def _l1_loss(model: torch.nn.Module, batch) -> tuple[torch.Tensor, dict[str, flo
 
 
 def train_deepprt(
-    train_split: Split, val_split: Split, material: str, cfg: dict, threads: int, checkpoint: str, log_csv: str
+    train_split: Split,
+    val_split: Split,
+    material: str,
+    cfg: dict,
+    threads: int,
+    checkpoint: str,
+    log_csv: str,
 ) -> None:
     """Train one DeepPRT network (one object, one material) with the shared loop."""
     torch.manual_seed(cfg["seed"])
@@ -147,10 +160,10 @@ def train_deepprt(
             "out_channels": out_channels,
             "material": material,
             "parameters": count_parameters(model),
-            "train_seconds": None,
         },
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
+    return model
 
 
 class DeepPRT:
@@ -170,7 +183,10 @@ class DeepPRT:
     def predict(self, split: Split, batch: int = 8) -> np.ndarray:
         """``(F, C, n, n)`` transfer in physical units."""
         x = torch.from_numpy(self.norm.inputs(split))
-        out = [self.model(x[i : i + batch].to(self.device)).cpu().numpy() for i in range(0, len(x), batch)]
+        out = [
+            self.model(x[i : i + batch].to(self.device)).cpu().numpy()
+            for i in range(0, len(x), batch)
+        ]
         return self.norm.decode(np.concatenate(out))
 
 
@@ -206,13 +222,25 @@ class MoMoPRT:
         return (np.column_stack([f, np.ones(len(f))]) @ self.weights).reshape(len(f), *self.shape)
 
     def save(self, path: str | Path) -> None:
-        io.save_npz(path, weights=self.weights, basis=self.basis, mean=self.mean, ridge=np.array(self.ridge),
-                    shape=np.array(self.shape))
+        io.save_npz(
+            path,
+            weights=self.weights,
+            basis=self.basis,
+            mean=self.mean,
+            ridge=np.array(self.ridge),
+            shape=np.array(self.shape),
+        )
 
     @classmethod
     def load(cls, path: str | Path) -> MoMoPRT:
         d = io.load_npz(path)
-        return cls(d["weights"], d["basis"], d["mean"], float(d["ridge"]), tuple(int(s) for s in d["shape"]))
+        return cls(
+            d["weights"],
+            d["basis"],
+            d["mean"],
+            float(d["ridge"]),
+            tuple(int(s) for s in d["shape"]),
+        )
 
     @property
     def parameters(self) -> int:
@@ -220,7 +248,11 @@ class MoMoPRT:
 
 
 def fit_momoprt(
-    train_split: Split, val_split: Split, material: str, use_params: bool, pca_components: int,
+    train_split: Split,
+    val_split: Split,
+    material: str,
+    use_params: bool,
+    pca_components: int,
     ridges: list[float],
 ) -> MoMoPRT:
     """Regularised least squares ``min ||X W - T||^2 + lambda ||W||^2`` (bias unregularised).
@@ -256,9 +288,41 @@ def fit_momoprt(
     return best[1]
 
 
-def split_params(seq: dict[str, np.ndarray], split: str) -> np.ndarray:
-    return seq[f"{split}_params"].astype(np.float64)
+def load_splits(
+    seq_path: str, dirs: dict[str, str], manifests: dict[str, str], n_bands: int, splits
+):
+    """Splits of one object by name, with the sequence file's shape parameters."""
+    seq = io.load_npz(seq_path)
+    return seq, {s: load_split(dirs[s], manifests[s], seq[f"{s}_params"], n_bands) for s in splits}
 
 
-def history_table(log_csv: str | Path) -> pd.DataFrame:
-    return io.read_csv(log_csv, ["epoch", "split", "metric", "value"])
+def run_train(
+    seq_path: str,
+    dirs: dict,
+    manifests: dict,
+    material: str,
+    cfg: dict,
+    threads: int,
+    checkpoint: str,
+    weights_out: str,
+    log_csv: str,
+) -> None:
+    """Train DeepPRT on an object's train split (val for model selection) and save its weights."""
+    _, splits = load_splits(seq_path, dirs, manifests, cfg["n_bands"], ("train", "val"))
+    model = train_deepprt(
+        splits["train"], splits["val"], material, cfg, threads, checkpoint, log_csv
+    )
+    # The network file a renderer ships: float32 weights only.
+    with io.atomic_path(weights_out) as tmp:
+        torch.save({k: v.detach().cpu().float() for k, v in model.state_dict().items()}, tmp)
+
+
+def run_momoprt(
+    seq_path: str, dirs: dict, manifests: dict, material: str, cfg: dict, out: str
+) -> None:
+    """Fit MoMoPRT on the train split, on blendshape weights where the object has them."""
+    seq, splits = load_splits(seq_path, dirs, manifests, cfg["n_bands"], ("train", "val"))
+    use_params = str(seq["kind"]) == "head"
+    fit_momoprt(
+        splits["train"], splits["val"], material, use_params, cfg["pca_components"], cfg["ridges"]
+    ).save(out)

@@ -61,7 +61,9 @@ def look_at_camera(
 class Raster:
     """Visible surface of one frame: which triangle and barycentrics each pixel sees."""
 
-    def __init__(self, positions: np.ndarray, resolution: int, camera_positions: np.ndarray | None = None):
+    def __init__(
+        self, positions: np.ndarray, resolution: int, camera_positions: np.ndarray | None = None
+    ):
         n = positions.shape[0]
         self.faces = grid_faces(n)
         self.resolution = resolution
@@ -77,7 +79,7 @@ class Raster:
         self.corners = self.faces[self.prim[self.mask]]
 
     def shade(self, vertex_values: np.ndarray) -> np.ndarray:
-        """Interpolate per-vertex values ``(n*n, C)`` to an image ``(C, res, res)`` (0 off-object)."""
+        """Interpolate vertex values ``(n*n, C)`` to an image ``(C, res, res)``, 0 off-object."""
         c = vertex_values.shape[-1]
         img = np.zeros((self.resolution * self.resolution, c), np.float32)
         img[self.mask] = np.einsum("pk,pkc->pc", self.bary, vertex_values[self.corners])
@@ -103,6 +105,8 @@ def glossy_radiance(
     view /= np.linalg.norm(view, axis=1, keepdims=True)
     reflected = 2 * (normals * view).sum(1, keepdims=True) * normals - view
     g = phong_zonal(exponent, n_bands)
-    conv = np.concatenate([np.full(2 * b + 1, math.sqrt(4 * math.pi / (2 * b + 1)) * g[b]) for b in range(n_bands)])
+    conv = np.concatenate(
+        [np.full(2 * b + 1, math.sqrt(4 * math.pi / (2 * b + 1)) * g[b]) for b in range(n_bands)]
+    )
     y = sh.eval_sh(reflected, n_bands) * conv  # (N, K)
     return np.einsum("nck,nk->nc", glossy.reshape(-1, 3, glossy.shape[-1]), y)

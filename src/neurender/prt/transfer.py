@@ -94,7 +94,7 @@ class DirectionSets:
 def upper_hemisphere_rays(
     positions: np.ndarray, normals: np.ndarray, dirs: np.ndarray, offset: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Occlusion rays of vertices ``(N, 3)`` along the directions ``(S, 3)`` above their tangent plane.
+    """Occlusion rays of vertices ``(N, 3)`` along directions ``(S, 3)`` above the tangent plane.
 
     Returns:
         ``cos`` ``(N, S)``, ``upper = cos > 0``, and ray origins and directions ``(R, 3)``
@@ -107,12 +107,16 @@ def upper_hemisphere_rays(
     return cos, upper, origins, np.take(dirs, np.nonzero(upper)[1], axis=0)
 
 
-def direction_jobs(assignment: np.ndarray, count: int, block: int = 2048) -> list[tuple[int, np.ndarray]]:
-    """Work items ``(set index, vertex rows)``: the vertices of each set, in blocks of ~``block``."""
+def direction_jobs(
+    assignment: np.ndarray, count: int, block: int = 2048
+) -> list[tuple[int, np.ndarray]]:
+    """Work items ``(set index, vertex rows)``: each set's vertices in blocks of ~``block``."""
     jobs = []
     for s in range(count):
         rows = np.nonzero(assignment == s)[0]
-        jobs += [(s, part) for part in np.array_split(rows, max(1, len(rows) // block)) if len(part)]
+        jobs += [
+            (s, part) for part in np.array_split(rows, max(1, len(rows) // block)) if len(part)
+        ]
     return jobs
 
 

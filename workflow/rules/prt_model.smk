@@ -1,0 +1,103 @@
+# DeepPRT model (paper 3.2, 4): ResNet U-Net per object and material, MoMoPRT baseline,
+# rendered-appearance evaluation against the clean test reference, compression and timing.
+
+
+rule prt_train:
+    input:
+        unpack(prt_split_inputs),
+    output:
+        checkpoint="results/prt/{object}/deepprt_{material}.pt",
+        weights="results/prt/{object}/deepprt_{material}_weights.pt",
+        loss="results/prt/{object}/deepprt_{material}_loss.csv",
+    params:
+        cfg=prt_model_params(),
+    log:
+        "results/logs/prt_train/{object}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_train/{object}_{material}.tsv"
+    threads: config["prt_model"]["threads"]
+    resources:
+        gpu=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_train.py"
+
+
+rule prt_momoprt:
+    input:
+        unpack(prt_split_inputs),
+    output:
+        model="results/prt/{object}/momoprt_{material}.npz",
+    params:
+        cfg=prt_model_params(),
+    log:
+        "results/logs/prt_momoprt/{object}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_momoprt/{object}_{material}.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_momoprt.py"
+
+
+rule prt_evaluate:
+    input:
+        unpack(prt_split_inputs),
+        deepprt=expand("results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS),
+        momoprt=expand("results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS),
+        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+    output:
+        metrics="results/prt/{object}/metrics.csv",
+        frames="results/prt/{object}/metrics_frames.csv",
+        figure=report("results/prt/figures/{object}_prediction.png", category="DeepPRT"),
+    params:
+        cfg=prt_model_params(),
+    log:
+        "results/logs/prt_evaluate/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_evaluate/{object}.tsv"
+    threads: workflow.cores
+    resources:
+        embree=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_evaluate.py"
+
+
+rule prt_model_summary:
+    input:
+        metrics=expand("results/prt/{object}/metrics.csv", object=config["prt"]["objects"]),
+        checkpoints=expand(
+            "results/prt/{object}/deepprt_{material}.pt", object=config["prt"]["objects"], material=PRT_MATERIALS
+        ),
+        weights=expand(
+            "results/prt/{object}/deepprt_{material}_weights.pt",
+            object=config["prt"]["objects"],
+            material=PRT_MATERIALS,
+        ),
+        losses=expand(
+            "results/prt/{object}/deepprt_{material}_loss.csv",
+            object=config["prt"]["objects"],
+            material=PRT_MATERIALS,
+        ),
+        frames=expand("results/prt/{object}/{split}", object=config["prt"]["objects"], split=PRT_SPLITS),
+    output:
+        metrics="results/prt/metrics.csv",
+        compression="results/prt/compression.csv",
+        targets="results/prt/targets.csv",
+        loss=report("results/prt/figures/loss_curves.png", category="DeepPRT"),
+    params:
+        cfg=prt_model_params(),
+        objects=config["prt"]["objects"],
+    log:
+        "results/logs/prt_model_summary/prt_model_summary.log",
+    benchmark:
+        "results/benchmarks/prt_model_summary/prt_model_summary.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_model_summary.py"
