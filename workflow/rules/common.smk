@@ -54,13 +54,17 @@ def prt_all_objects():
 
 def report_tables():
     tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
-    return expand("results/prt/{table}.csv", table=tables)
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables()
 
 
 def report_figures():
     objects = config["prt"]["objects"]
     frames = expand("results/prt/figures/{object}_{kind}.png", object=objects, kind=("prediction", "frames"))
-    return frames + ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
+    experiments = expand("results/prt/figures/{experiment}.png", experiment=PRT_EXPERIMENTS)
+    fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
+    if len(config["prt"]["probes"]) >= 2:
+        fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
+    return frames + experiments + fixed
 
 
 def prt_subset(*keys):
@@ -89,3 +93,16 @@ def prt_model_params():
     data_keys = ("n_bands", "directions", "reference_directions", "direction_sets", "ray_offset")
     data_keys += ("noise_floor_frames", "resolution", "frames")
     return {"device": config["device"], **prt_subset(*data_keys), **config["prt_model"]}
+
+
+PRT_EXPERIMENTS = ("head_linear", "head_excluded") if config["prt"]["experiments"] else ()
+
+
+def prt_sequence_gim(wildcards):
+    """The section 4.2.2 experiments deform the head's geometry image."""
+    source = "head" if wildcards.object in ("head_linear", "head_excluded") else wildcards.object
+    return f"results/prt/{source}/geometry_image.npz"
+
+
+def prt_experiment_tables():
+    return expand("results/prt/{experiment}/experiment.csv", experiment=PRT_EXPERIMENTS)

@@ -42,11 +42,11 @@ rule prt_geometry_image:
 
 rule prt_sequence:
     input:
-        gim="results/prt/{object}/geometry_image.npz",
+        gim=prt_sequence_gim,
     output:
         seq="results/prt/{object}/sequence.npz",
     params:
-        cfg=prt_subset("frames"),
+        cfg=prt_subset("frames", "experiment_points", "linear_range", "excluded_expression"),
     log:
         "results/logs/prt_sequence/{object}.log",
     benchmark:

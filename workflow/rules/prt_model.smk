@@ -84,6 +84,7 @@ rule prt_model_summary:
             material=PRT_MATERIALS,
         ),
         frames=expand("results/prt/{object}/{split}", object=config["prt"]["objects"], split=PRT_SPLITS),
+        experiments=prt_experiment_tables(),
     output:
         metrics="results/prt/metrics.csv",
         compression="results/prt/compression.csv",
@@ -101,3 +102,48 @@ rule prt_model_summary:
         "../envs/neurender.yaml"
     script:
         "../scripts/prt_model_summary.py"
+
+
+rule prt_experiment:
+    input:
+        unpack(prt_split_inputs),
+        deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        momoprt="results/prt/{object}/momoprt_diffuse.npz",
+        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+    output:
+        csv="results/prt/{object}/experiment.csv",
+        figure=report("results/prt/figures/{object}.png", category="DeepPRT"),
+    params:
+        cfg=prt_model_params(),
+    wildcard_constraints:
+        object="head_linear|head_excluded",
+    log:
+        "results/logs/prt_experiment/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_experiment/{object}.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_experiment.py"
+
+
+rule prt_relight:
+    input:
+        unpack(prt_split_inputs),
+        deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        probes=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]),
+    output:
+        csv="results/prt/{object}/relight.csv",
+        figure=report("results/prt/figures/{object}_relight.png", category="DeepPRT"),
+    params:
+        cfg=prt_model_params(),
+    log:
+        "results/logs/prt_relight/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_relight/{object}.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_relight.py"

@@ -10,6 +10,7 @@ keys = list(product(objects, MATERIALS))  # the order of expand() in the rule
 summarise_models(
     objects,
     inp.metrics,
+    inp.experiments,
     dict(zip(keys, inp.checkpoints, strict=True)),
     dict(zip(keys, inp.weights, strict=True)),
     dict(zip(keys, inp.losses, strict=True)),

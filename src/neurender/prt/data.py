@@ -144,54 +144,40 @@ def _tidy(dataset: str, model: str, split: str, values: dict[str, float]) -> pd.
 # ---------------------------------------------------------------- deformation sequences
 
 
+#: Datasets of paper section 4.2.2, built on the head's geometry image.
+EXPERIMENTS = ("head_linear", "head_excluded")
+
+
 def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
-    """Deformation frames of every split (paper 3.2.2).
+    """Deformation frames of every split (paper 3.2.2) and the section 4.2.2 experiments.
 
     Train and val are one smooth sequence (val frames a random subset, as the paper's
     450/50 split); test frames lie outside it: unseen blendshape combinations with weights
     up to 1.3 (head), a separately seeded simulation (cloth), or unseen lattice motion
-    (creature, user meshes).
+    (creature, user meshes). ``head_linear``: S_lin = a S_head + (1 - a) S_plane with a in
+    [0, 1] for training and evenly spaced a over ``linear_range`` for test.
+    ``head_excluded``: the head without the ``excluded_expression`` blendshape in training;
+    test shapes move from the mean training shape to that expression.
     """
     gim = io.load_npz(gim_path)
-    kind = str(gim["kind"])
+    kind = name if name in EXPERIMENTS else str(gim["kind"])
     rest = gim["rest"].astype(np.float64)
     n_train, n_val, n_test = (cfg["frames"][s] for s in SPLITS)
+    if kind in EXPERIMENTS:
+        n_test = cfg["experiment_points"]
     seq_len = n_train + n_val
     rng = np.random.default_rng(stable_seed(cfg["seed"], name, "sequence"))
     test_rng = np.random.default_rng(stable_seed(cfg["seed"], name, "test"))
-    extrapolated = np.zeros(n_test, bool)
-    if kind == "head":
-        deltas = gim["deltas"].astype(np.float64)
-        weights = deform.smooth_walk(seq_len, len(deltas), rng)
-        # Test: random combinations; every other frame has some weights beyond the
-        # training range [0, 1] (up to 1.3).
-        test_w = test_rng.uniform(0.0, 1.0, (n_test, len(deltas)))
-        extrapolated[1::2] = True
-        test_w[1::2] *= test_rng.uniform(1.1, 1.3, (len(test_w[1::2]), 1))
-        seq_pos = deform.apply_blendshapes(rest, deltas, weights)
-        test_pos = deform.apply_blendshapes(rest, deltas, test_w)
-        seq_params, test_params = weights, test_w
-    elif kind == "cloth":
-        seq_pos = deform.simulate_cloth(rest, seq_len, rng)
-        test_pos = deform.simulate_cloth(rest, n_test, test_rng)
-        seq_params, test_params = _pca_params(seq_pos, test_pos)
-    else:  # creature and user meshes: free-form deformation lattice
-        lower, upper = rest.reshape(-1, 3).min(0), rest.reshape(-1, 3).max(0)
-        pad = 0.05 * (upper - lower).max()
-        lower, upper = lower - pad, upper + pad
-        shape = (4, 4, 3)
-        lattice = deform.ffd_lattice(lower, upper, shape)
-        amplitude = 0.12 * float((upper - lower).max())
-        seq_disp = deform.lattice_displacements(seq_len, shape, amplitude, rng)
-        test_disp = deform.lattice_displacements(n_test, shape, amplitude, test_rng, period=37.0)
-        flat = rest.reshape(-1, 3)
-        seq_pos = np.stack([deform.ffd(flat, lower, upper, lattice + d) for d in seq_disp]).reshape(
-            -1, *rest.shape
-        )
-        test_pos = np.stack(
-            [deform.ffd(flat, lower, upper, lattice + d) for d in test_disp]
-        ).reshape(-1, *rest.shape)
-        seq_params, test_params = seq_disp.reshape(seq_len, -1), test_disp.reshape(n_test, -1)
+    builders = {
+        "head": _head_sequences,
+        "cloth": _cloth_sequences,
+        "head_linear": _linear_sequences,
+        "head_excluded": _excluded_sequences,
+    }
+    build = builders.get(kind, _lattice_sequences)
+    seq_pos, seq_params, test_pos, test_params, extrapolated = build(
+        gim, rest, seq_len, n_test, rng, test_rng, cfg
+    )
     order = np.random.default_rng(stable_seed(cfg["seed"], name, "split")).permutation(seq_len)
     val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
     io.save_npz(
@@ -207,6 +193,89 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
         test_extrapolated=extrapolated,
         kind=np.array(kind),
     )
+
+
+def _head_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
+    deltas = gim["deltas"].astype(np.float64)
+    weights = deform.smooth_walk(seq_len, len(deltas), rng)
+    # Test: random combinations; every other frame has weights beyond the training
+    # range [0, 1] (scaled by 1.1-1.3).
+    test_w = test_rng.uniform(0.0, 1.0, (n_test, len(deltas)))
+    extrapolated = np.zeros(n_test, bool)
+    extrapolated[1::2] = True
+    test_w[1::2] *= test_rng.uniform(1.1, 1.3, (len(test_w[1::2]), 1))
+    seq_pos = deform.apply_blendshapes(rest, deltas, weights)
+    return seq_pos, weights, deform.apply_blendshapes(rest, deltas, test_w), test_w, extrapolated
+
+
+def _cloth_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
+    seq_pos = deform.simulate_cloth(rest, seq_len, rng)
+    test_pos = deform.simulate_cloth(rest, n_test, test_rng)
+    seq_params, test_params = _pca_params(seq_pos, test_pos)
+    return seq_pos, seq_params, test_pos, test_params, np.zeros(n_test, bool)
+
+
+def _lattice_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
+    """Creature and user meshes: a moving free-form-deformation lattice."""
+    lower, upper = rest.reshape(-1, 3).min(0), rest.reshape(-1, 3).max(0)
+    pad = 0.05 * (upper - lower).max()
+    lower, upper = lower - pad, upper + pad
+    shape = (4, 4, 3)
+    lattice = deform.ffd_lattice(lower, upper, shape)
+    amplitude = 0.12 * float((upper - lower).max())
+    flat = rest.reshape(-1, 3)
+
+    def frames(disp):
+        return np.stack([deform.ffd(flat, lower, upper, lattice + d) for d in disp]).reshape(
+            -1, *rest.shape
+        )
+
+    seq_disp = deform.lattice_displacements(seq_len, shape, amplitude, rng)
+    test_disp = deform.lattice_displacements(n_test, shape, amplitude, test_rng, period=37.0)
+    return (
+        frames(seq_disp),
+        seq_disp.reshape(seq_len, -1),
+        frames(test_disp),
+        test_disp.reshape(n_test, -1),
+        np.zeros(n_test, bool),
+    )
+
+
+def _linear_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
+    """S_lin = a S_head + (1 - a) S_plane; the plane is the head's grid flattened (z = 0)."""
+    plane = rest.copy()
+    plane[..., 2] = 0.0
+    a_train = rng.uniform(0.0, 1.0, seq_len)
+    a_test = np.linspace(*cfg["linear_range"], n_test)
+
+    def frames(a):
+        return a[:, None, None, None] * rest + (1 - a[:, None, None, None]) * plane
+
+    return (
+        frames(a_train),
+        a_train[:, None],
+        frames(a_test),
+        a_test[:, None],
+        (a_test < 0) | (a_test > 1),
+    )
+
+
+def _excluded_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
+    """Head walk without one expression; test moves from the mean shape to that expression."""
+    deltas = gim["deltas"].astype(np.float64)
+    names = [str(b) for b in gim["blendshapes"]]
+    excluded = cfg["excluded_expression"]
+    if excluded not in names:
+        raise ValueError(f"prt.excluded_expression {excluded!r}: expected one of {names}")
+    k = names.index(excluded)
+    weights = deform.smooth_walk(seq_len, len(deltas), rng)
+    weights[:, k] = 0.0
+    target = np.zeros(len(deltas))
+    target[k] = 1.0
+    t = np.linspace(0.0, 1.0, n_test)[:, None]
+    test_w = (1 - t) * weights.mean(0) + t * target
+    seq_pos = deform.apply_blendshapes(rest, deltas, weights)
+    return seq_pos, weights, deform.apply_blendshapes(rest, deltas, test_w), test_w, t[:, 0] > 0
 
 
 def _pca_params(

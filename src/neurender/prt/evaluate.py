@@ -447,6 +447,7 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
 def summarise_models(
     objects,
     metrics_csvs,
+    experiment_csvs,
     checkpoints,
     weights,
     loss_csvs,
@@ -459,6 +460,7 @@ def summarise_models(
 ) -> None:
     """Collect per-object results into the report's DeepPRT tables and the loss figure."""
     table = pd.concat([io.read_csv(p) for p in metrics_csvs], ignore_index=True)
+    experiments = [io.read_csv(p) for p in experiment_csvs]
     io.write_csv(metrics_out, table)
     frames = cfg["frames"]["train"] + cfg["frames"]["val"]
     io.write_csv(
@@ -467,5 +469,176 @@ def summarise_models(
             objects, checkpoints, weights, frame_dirs, cfg["resolution"], frames, cfg["n_bands"]
         ),
     )
-    io.write_csv(targets_out, target_rows(table, 0.97, 20.0))
+    targets = [target_rows(table, 0.97, 20.0)] + [experiment_target_rows(e) for e in experiments]
+    io.write_csv(targets_out, pd.concat(targets, ignore_index=True))
     loss_figure(loss_csvs, loss_png)
+
+
+def evaluate_experiment(
+    name: str,
+    seq_path: str,
+    test_dir: str,
+    test_manifest: str,
+    checkpoint: str,
+    momoprt_path: str,
+    light_csv: str,
+    cfg: dict,
+    threads: int,
+    out_csv: str,
+    out_png: str,
+) -> None:
+    """Paper section 4.2.2 / Fig. 6: diffuse L2-RGB along a test path for DeepPRT and MoMoPRT.
+
+    The path is the ``a`` of the linear shape space (``head_linear``) or the distance
+    ``t`` from the mean training shape to the excluded expression (``head_excluded``).
+    """
+    seq = io.load_npz(seq_path)
+    light = read_sh_light(light_csv)[: cfg["n_bands"] ** 2]
+    data = load_split(test_dir, test_manifest, seq["test_params"], cfg["n_bands"])
+    if name == "head_linear":
+        x, label = seq["test_params"][:, 0], "a in S_lin = a S_head + (1 - a) S_plane"
+    else:
+        x, label = (
+            np.linspace(0.0, 1.0, len(data.positions)),
+            "t: mean shape (0) to excluded expression (1)",
+        )
+    preds = {
+        "DeepPRT": DeepPRT(checkpoint, cfg["device"], threads).predict(data),
+        "MoMoPRT": MoMoPRT.load(momoprt_path).predict(data),
+    }
+    rows = []
+    for f in range(len(data.positions)):
+        raster = render.Raster(data.positions[f], cfg["render_resolution"], data.positions)
+        n = data.positions.shape[1]
+        gt = raster.shade(render.diffuse_radiance(data.diffuse[f].reshape(n * n, -1), light))
+        for model, pred in preds.items():
+            img = raster.shade(
+                render.diffuse_radiance(np.moveaxis(pred[f], 0, -1).reshape(n * n, -1), light)
+            )
+            scores = compare_images(gt, img, raster.mask_image())
+            for metric in ("l2rgb", "ssim"):
+                rows.append(
+                    {
+                        "method": "prt",
+                        "dataset": name,
+                        "model": model,
+                        "split": "test",
+                        "x": round(float(x[f]), 4),
+                        "metric": f"{metric}_diffuse",
+                        "value": scores[metric],
+                    }
+                )
+    table = pd.DataFrame(rows)
+    io.write_csv(out_csv, table)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    for model, style in (("DeepPRT", "o-"), ("MoMoPRT", "s--")):
+        sel = table[(table.model == model) & (table.metric == "l2rgb_diffuse")]
+        ax.semilogy(sel.x, sel.value, style, label=model)
+    if name == "head_linear":
+        ax.axvspan(0, 1, color="0.9", label="training range")
+    ax.set_xlabel(label)
+    ax.set_ylabel("mean L2-RGB (diffuse)")
+    ax.set_title(f"DeepPRT paper Fig. 6: {name}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    with io.atomic_path(out_png) as tmp:
+        fig.savefig(tmp, dpi=90)
+    plt.close(fig)
+
+
+def experiment_target_rows(table: pd.DataFrame) -> pd.DataFrame:
+    """Excluded-expression targets: DeepPRT below MoMoPRT everywhere, >= 1.5x lower at the end."""
+    sel = table[(table.dataset == "head_excluded") & (table.metric == "l2rgb_diffuse")]
+    if sel.empty:
+        return pd.DataFrame()
+    wide = sel.pivot(index="x", columns="model", values="value").sort_index()
+    ratio = float(wide["MoMoPRT"].iloc[-1] / wide["DeepPRT"].iloc[-1])
+    below = bool((wide["DeepPRT"] < wide["MoMoPRT"]).all())
+    return pd.DataFrame(
+        [
+            {
+                "object": "head_excluded",
+                "check": "DeepPRT L2-RGB below MoMoPRT's at every test point",
+                "measured": float((wide["DeepPRT"] < wide["MoMoPRT"]).mean()),
+                "met": below,
+            },
+            {
+                "object": "head_excluded",
+                "check": "MoMoPRT / DeepPRT L2-RGB at the far end >= 1.5",
+                "measured": ratio,
+                "met": ratio >= 1.5,
+            },
+        ]
+    )
+
+
+def relight_figure(
+    name: str,
+    seq_path: str,
+    test_dir: str,
+    test_manifest: str,
+    checkpoint: str,
+    probe_csvs: list[str],
+    cfg: dict,
+    threads: int,
+    out_csv: str,
+    out_png: str,
+    steps: int = 5,
+) -> None:
+    """Paper Fig. 2: one test frame relit while the light blends from the first probe to the second.
+
+    SH lighting is linear, so the blend of two probes is the blend of their coefficients;
+    the transfer (ground truth or DeepPRT's) is computed once.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if len(probe_csvs) < 2:
+        raise ValueError(f"dynamic lighting needs two light probes, got {probe_csvs}")
+    seq = io.load_npz(seq_path)
+    k = cfg["n_bands"] ** 2
+    lights = [read_sh_light(p)[:k] for p in probe_csvs[:2]]
+    data = load_split(test_dir, test_manifest, seq["test_params"], cfg["n_bands"])
+    pred = DeepPRT(checkpoint, cfg["device"], threads).predict(data)[0]
+    n = data.positions.shape[1]
+    raster = render.Raster(data.positions[0], cfg["render_resolution"])
+    gt_t = data.diffuse[0].reshape(n * n, -1)
+    pred_t = np.moveaxis(pred, 0, -1).reshape(n * n, -1)
+    fig, axes = plt.subplots(2, steps, figsize=(2.2 * steps, 4.6), squeeze=False)
+    rows = []
+    for i, w in enumerate(np.linspace(0.0, 1.0, steps)):
+        light = (1 - w) * lights[0] + w * lights[1]
+        gt = raster.shade(render.diffuse_radiance(gt_t, light))
+        img = raster.shade(render.diffuse_radiance(pred_t, light))
+        scores = compare_images(gt, img, raster.mask_image())
+        rows.append(
+            {
+                "method": "prt",
+                "dataset": name,
+                "model": "DeepPRT",
+                "split": "test",
+                "blend": round(float(w), 3),
+                "metric": "ssim_diffuse",
+                "value": scores["ssim"],
+            }
+        )
+        scale = gt.max()
+        for r, im in enumerate((gt, img)):
+            axes[r, i].imshow(np.moveaxis(np.clip(im / scale, 0, 1), 0, -1) ** (1 / 2.2))
+            axes[r, i].axis("off")
+        axes[0, i].set_title(f"blend {w:.2f}: ground truth", fontsize=7)
+        axes[1, i].set_title(f"DeepPRT, SSIM {scores['ssim']:.3f}", fontsize=7)
+    fig.suptitle(f"DeepPRT paper Fig. 2: {name} test frame 0 under a blend of two light probes")
+    fig.tight_layout()
+    with io.atomic_path(out_png) as tmp:
+        fig.savefig(tmp, dpi=90)
+    plt.close(fig)
+    io.write_csv(out_csv, pd.DataFrame(rows))

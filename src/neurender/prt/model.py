@@ -322,7 +322,7 @@ def run_momoprt(
 ) -> None:
     """Fit MoMoPRT on the train split, on blendshape weights where the object has them."""
     seq, splits = load_splits(seq_path, dirs, manifests, cfg["n_bands"], ("train", "val"))
-    use_params = str(seq["kind"]) == "head"
+    use_params = str(seq["kind"]) in ("head", "head_linear", "head_excluded")
     fit_momoprt(
         splits["train"], splits["val"], material, use_params, cfg["pca_components"], cfg["ridges"]
     ).save(out)
