@@ -202,7 +202,7 @@ def fit(
             loss, logs = loss_fn(model, to_device(batch, device))
             if not torch.isfinite(loss):
                 raise FloatingPointError(
-                    f"training loss became {float(loss)} at epoch {epoch + 1}, step {step + 1} "
+                    f"training loss became {loss.item()} at epoch {epoch + 1}, step {step + 1} "
                     f"(checkpoint {checkpoint_path}); lower the learning rate or check the data"
                 )
             optimizer.zero_grad(set_to_none=True)

@@ -27,6 +27,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender import io, lights, sh
+from neurender.plots import plt, save_figure
 from neurender.prt import deform, objects, transfer
 from neurender.prt.geometry_image import (
     build_geometry_image,
@@ -468,11 +469,6 @@ def frames_figure(
     name: str, test_dir: str, light_csv: str, n_bands: int, out: str, count: int = 3
 ) -> None:
     """Position, normal, diffuse-transfer and relit-radiance images of a few test frames."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     files = sorted(Path(test_dir).glob("frame_*.exr"))[:count]
     if not files:
         raise FileNotFoundError(f"no frame_*.exr files in {test_dir}")
@@ -498,18 +494,11 @@ def frames_figure(
             ax.axis("off")
     fig.suptitle(f"DeepPRT data: {name}, test frames (geometry-image space)")
     fig.tight_layout()
-    with io.atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out)
 
 
 def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
     """Each probe, its SH reconstruction and the halfway blend of the first two (paper Fig. 2)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     def tonemap(img: np.ndarray) -> np.ndarray:
         return np.clip(img / (1.0 + img), 0, 1) ** (1 / 2.2)
 
@@ -532,6 +521,4 @@ def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
         ax.set_title(title, fontsize=8)
         ax.axis("off")
     fig.tight_layout()
-    with io.atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out)

@@ -24,6 +24,7 @@ import pandas as pd
 import torch
 
 from neurender import io, metrics
+from neurender.plots import plt, save_figure
 from neurender.prt import render, transfer
 from neurender.prt.data import ray_offset, read_sh_light, stable_seed
 from neurender.prt.geometry_image import grid_faces
@@ -271,11 +272,6 @@ def _diffuse_ssim(positions, diffuse, reference, resolution, light) -> float:
 
 def prediction_figure(name: str, panels: dict | None, out: str) -> None:
     """GT | prediction | SSIM map | L1 map per model and material (paper Fig. 7)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     if not panels:
         raise ValueError(f"{name}: no test frame to draw")
     keys = [k for k in panels if not k[0].startswith("ground truth")] + [
@@ -302,9 +298,7 @@ def prediction_figure(name: str, panels: dict | None, out: str) -> None:
         fig.colorbar(im, ax=row[3], fraction=0.046)
     fig.suptitle(f"DeepPRT: {name}, an extrapolated test frame vs its clean reference")
     fig.tight_layout()
-    with io.atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out)
 
 
 # Paper section 4.1: 11.8 M parameters, 500 frames, m = 16 (diffuse) or 48 (glossy).
@@ -423,11 +417,6 @@ def target_rows(
 
 def loss_figure(loss_csvs: dict, out: str) -> None:
     """Training and validation L1 per object and material."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
     for (obj, material), path in sorted(loss_csvs.items()):
         log_table = io.read_csv(path, ["epoch", "split", "metric", "value"])
@@ -439,9 +428,7 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
         ax.set_xlabel("epoch")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
-    with io.atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out)
 
 
 def summarise_models(
@@ -531,11 +518,6 @@ def evaluate_experiment(
     table = pd.DataFrame(rows)
     io.write_csv(out_csv, table)
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, ax = plt.subplots(figsize=(5, 3.2))
     for model, style in (("DeepPRT", "o-"), ("MoMoPRT", "s--")):
         sel = table[(table.model == model) & (table.metric == "l2rgb_diffuse")]
@@ -547,9 +529,7 @@ def evaluate_experiment(
     ax.set_title(f"DeepPRT paper Fig. 6: {name}")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    with io.atomic_path(out_png) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out_png)
 
 
 def experiment_target_rows(table: pd.DataFrame) -> pd.DataFrame:
@@ -596,11 +576,6 @@ def relight_figure(
     SH lighting is linear, so the blend of two probes is the blend of their coefficients;
     the transfer (ground truth or DeepPRT's) is computed once.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     if len(probe_csvs) < 2:
         raise ValueError(f"dynamic lighting needs two light probes, got {probe_csvs}")
     seq = io.load_npz(seq_path)
@@ -638,7 +613,5 @@ def relight_figure(
         axes[1, i].set_title(f"DeepPRT, SSIM {scores['ssim']:.3f}", fontsize=7)
     fig.suptitle(f"DeepPRT paper Fig. 2: {name} test frame 0 under a blend of two light probes")
     fig.tight_layout()
-    with io.atomic_path(out_png) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out_png)
     io.write_csv(out_csv, pd.DataFrame(rows))
