@@ -75,6 +75,9 @@ rule prt_transfer:
     threads: workflow.cores
     resources:
         embree=1,
+    # Finish the ground truth first: a 2-thread transfer cannot share the cores with the
+    # 1-thread training jobs, which then run two at a time.
+    priority: 10
     conda:
         "../envs/neurender.yaml"
     script:

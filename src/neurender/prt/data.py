@@ -499,6 +499,7 @@ def frames_figure(
 
 def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
     """Each probe, its SH reconstruction and the halfway blend of the first two (paper Fig. 2)."""
+
     def tonemap(img: np.ndarray) -> np.ndarray:
         return np.clip(img / (1.0 + img), 0, 1) ** (1 / 2.2)
 

@@ -1,0 +1,1 @@
+"""Image-space metaballs (thesis): scenes, ray-marched targets, circle inputs, AB packing."""

@@ -1,0 +1,75 @@
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from neurender.metaballs import ab, inputs, raymarch, scenes
+
+
+def _one_ball(z=15.0, r=2.0):
+    return scenes.Scene(
+        torch.tensor([[0.0, 0.0, z]], dtype=torch.float64),
+        torch.tensor([r], dtype=torch.float64),
+        torch.tensor([[0.2, 0.4, 0.6]], dtype=torch.float64),
+    )
+
+
+def test_isolated_ball_is_a_sphere():
+    g = raymarch.render_gbuffers(_one_ball(), 33)
+    c = 16  # the central pixel looks straight down +z
+    assert g.depth[0, c, c] == pytest.approx((13.0 - 7.0) / 18.0, abs=1e-6)
+    np.testing.assert_allclose(g.normal[:, c, c], [0.5, 0.5, 0.0], atol=1e-3)  # facing the camera
+    np.testing.assert_allclose(g.colour[:, c, c], [0.2, 0.4, 0.6], atol=1e-9)
+    assert g.depth[0, 0, 0] == 1.0 and g.normal[:, 0, 0].abs().sum() == 0  # background
+    # silhouette: angular radius asin(r / d)
+    dirs = scenes.pixel_rays(33)
+    inside = torch.acos(dirs[..., 2]) < math.asin(2.0 / 15.0)
+    assert (inside == g.mask).float().mean() > 0.99
+
+
+def test_safe_stepping_matches_brute_force_marching():
+    gen = torch.Generator().manual_seed(0)
+    scene = scenes.sample_scene(12, (0.8, 2.0), gen)
+    dirs = scenes.pixel_rays(24).reshape(-1, 3)
+    origins = torch.zeros_like(dirs)
+    fast = raymarch.march(origins, dirs, scene)
+    # brute force: fixed 0.002 steps, first sample with F >= 1
+    ts = torch.arange(scenes.MIN_DEPTH, scenes.MAX_DEPTH, 0.002, dtype=torch.float64)
+    for i in range(0, len(dirs), 97):
+        f = raymarch.field(dirs[i][None] * ts[:, None], scene)[0]
+        above = (f >= 1).nonzero()
+        if len(above) == 0:
+            assert math.isinf(fast[i])
+        else:
+            assert abs(float(fast[i]) - float(ts[above[0, 0]])) < 0.003  # < 1e-3 of the range (18)
+
+
+def test_nearer_circles_are_drawn_over_farther_ones():
+    near = scenes.Scene(
+        torch.tensor([[0.0, 0.0, 10.0], [0.0, 0.0, 20.0]], dtype=torch.float64),
+        torch.tensor([1.0, 2.0], dtype=torch.float64),
+        torch.tensor([[1.0, 0, 0], [0, 1.0, 0]], dtype=torch.float64),
+    )
+    img = inputs.draw_inputs(near, 64)
+    # both rings have the same projected radius (r / z equal): the near (red) one wins
+    ring = img[3] < 1
+    assert ring.any()
+    assert (img[0][ring] == 1).all() and (img[1][ring] == 0).all()
+    assert img[3][ring].unique().tolist() == [pytest.approx(3.0 / 18.0)]
+    assert img[3][~ring].eq(1).all()
+
+
+def test_ab_round_trip(tmp_path):
+    gen = torch.Generator().manual_seed(1)
+    scene = scenes.sample_scene(5, (1.0, 2.0), gen)
+    g = raymarch.render_gbuffers(scene, 16)
+    x = inputs.draw_inputs(scene, 16)
+    packed = ab.pack(x, g.colour, g.depth, g.normal)
+    assert packed.shape == (16, 48, 4) and packed.dtype == np.uint8
+    ab.write_ab(tmp_path / "a.png", packed)
+    back = ab.read_ab(tmp_path / "a.png")
+    for key, ref in (("inputs", x), ("colour", g.colour), ("depth", g.depth), ("normal", g.normal)):
+        np.testing.assert_allclose(back[key].double(), ref, atol=0.5 / 255 + 1e-6)
+    with pytest.raises(ValueError, match="expected \\(W, 3W, 4\\)"):
+        ab.unpack(packed[:, :40])
