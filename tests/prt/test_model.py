@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from neurender.prt.model import MoMoPRT, Normalisation, Split, fit_momoprt
 
@@ -36,14 +37,23 @@ def test_momoprt_pca_path_and_save_load(tmp_path):
     assert again.predict(train).shape == (12, 48, 4, 4)
 
 
-def test_normalisation_round_trip_and_range():
+@pytest.mark.parametrize("residual", [False, True])
+def test_normalisation_round_trip_and_range(residual):
     rng = np.random.default_rng(2)
     w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
     split = _split(rng.uniform(0, 1, (6, 2)), rng, affine=(w, b))
-    norm = Normalisation.fit(split, "diffuse")
+    norm = Normalisation.fit(split, "diffuse", residual=residual)
     t = split.targets("diffuse")
     enc = norm.encode(t)
     assert enc.min() >= 0.1 / 1.2 - 1e-6 and enc.max() <= 1.1 / 1.2 + 1e-6  # 10% margin each side
     np.testing.assert_allclose(norm.decode(enc), t, atol=1e-5)
     x = norm.inputs(split)
     assert x.shape == (6, 6, 4, 4) and np.abs(x[:, :3]).max() <= 1.0 + 1e-6
+
+
+def test_residual_targets_put_the_mean_image_at_one_half():
+    rng = np.random.default_rng(3)
+    w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
+    split = _split(rng.uniform(0, 1, (8, 2)), rng, affine=(w, b))
+    norm = Normalisation.fit(split, "diffuse", residual=True)
+    np.testing.assert_allclose(norm.encode(split.targets("diffuse")).mean(0), 0.5, atol=1e-5)

@@ -69,25 +69,41 @@ def load_split(
 
 @dataclasses.dataclass
 class Normalisation:
-    """Affine maps of inputs and targets; ``x_normalised = (x - offset) / scale``."""
+    """Affine maps of inputs and targets; ``x_normalised = (x - offset) / scale``.
+
+    Targets either span [0, 1] per channel (the paper: ``offset``, ``scale`` ``(C, 1, 1)``)
+    or, with ``residual``, are the deviation from the training set's mean image centred on
+    0.5 (``offset`` ``(C, n, n)``): the network then spends no capacity on the part of
+    the transfer that every frame shares, which a small network learns only slowly.
+    """
 
     p_offset: np.ndarray  # (3,)
     p_scale: np.ndarray  # (3,)
-    t_offset: np.ndarray  # (C,)
-    t_scale: np.ndarray  # (C,)
+    t_offset: np.ndarray  # (C, 1, 1) or (C, n, n)
+    t_scale: np.ndarray  # (C, 1, 1)
 
     @classmethod
-    def fit(cls, split: Split, material: str, margin: float = 0.1) -> Normalisation:
+    def fit(
+        cls, split: Split, material: str, residual: bool = True, margin: float = 0.1
+    ) -> Normalisation:
         p = split.positions.reshape(-1, 3)
         lo, hi = p.min(0), p.max(0)
         t = split.targets(material)
-        tlo, thi = t.min(axis=(0, 2, 3)), t.max(axis=(0, 2, 3))
-        span = np.maximum(thi - tlo, 1e-6)
+        if residual:
+            mean = t.mean(0)
+            span = 2 * np.maximum(np.abs(t - mean).max(axis=(0, 2, 3)), 1e-6)[:, None, None]
+            scale = (1 + 2 * margin) * span
+            offset = mean - 0.5 * scale
+        else:
+            tlo, thi = t.min(axis=(0, 2, 3)), t.max(axis=(0, 2, 3))
+            span = np.maximum(thi - tlo, 1e-6)[:, None, None]
+            scale = (1 + 2 * margin) * span
+            offset = tlo[:, None, None] - margin * span
         return cls(
             p_offset=(lo + hi) / 2,
             p_scale=np.maximum(hi - lo, 1e-6).max() / 2 * np.ones(3, np.float32),
-            t_offset=(tlo - margin * span).astype(np.float32),
-            t_scale=((1 + 2 * margin) * span).astype(np.float32),
+            t_offset=offset.astype(np.float32),
+            t_scale=scale.astype(np.float32),
         )
 
     def inputs(self, split: Split) -> np.ndarray:
@@ -98,12 +114,12 @@ class Normalisation:
         )
 
     def encode(self, targets: np.ndarray) -> np.ndarray:
-        return ((targets - self.t_offset[:, None, None]) / self.t_scale[:, None, None]).astype(
-            np.float32
-        )
+        """Targets ``(F, C, n, n)`` to network outputs in [0, 1]."""
+        return ((targets - self.t_offset) / self.t_scale).astype(np.float32)
 
     def decode(self, values: np.ndarray) -> np.ndarray:
-        return values * self.t_scale[:, None, None] + self.t_offset[:, None, None]
+        """Network outputs ``(F, C, n, n)`` to transfer."""
+        return values * self.t_scale + self.t_offset
 
     def state(self) -> dict[str, np.ndarray]:
         return dataclasses.asdict(self)
@@ -129,7 +145,7 @@ def train_deepprt(
 ) -> None:
     """Train one DeepPRT network (one object, one material) with the shared loop."""
     torch.manual_seed(cfg["seed"])
-    norm = Normalisation.fit(train_split, material)
+    norm = Normalisation.fit(train_split, material, residual=cfg["residual_targets"])
     make = lambda s: TensorDataset(  # noqa: E731
         torch.from_numpy(norm.inputs(s)), torch.from_numpy(norm.encode(s.targets(material)))
     )
