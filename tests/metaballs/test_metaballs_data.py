@@ -73,3 +73,18 @@ def test_ab_round_trip(tmp_path):
         np.testing.assert_allclose(back[key].double(), ref, atol=0.5 / 255 + 1e-6)
     with pytest.raises(ValueError, match="expected \\(W, 3W, 4\\)"):
         ab.unpack(packed[:, :40])
+
+
+def test_generate_split_is_deterministic_and_round_trips(tmp_path):
+    from neurender import io
+    from neurender.metaballs import data
+
+    cfg = {"seed": 3, "width": 16, "examples": {"test": 3}, "balls": [2, 5], "radius": [1.0, 2.0]}
+    for run in ("a", "b"):
+        data.generate_split("test", cfg, 1, tmp_path / run, tmp_path / f"{run}.csv")
+    m = io.read_csv(tmp_path / "a.csv", ["balls", "coverage", "min_depth_separation"])
+    assert len(m) == 3 and m.balls.between(2, 5).all()
+    for f in m.file:
+        np.testing.assert_array_equal(io.read_png(tmp_path / "a" / f), io.read_png(tmp_path / "b" / f))
+    back = ab.read_ab(tmp_path / "a" / m.file[0])
+    assert back["inputs"].shape == (4, 16, 16)

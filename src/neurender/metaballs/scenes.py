@@ -38,6 +38,9 @@ class Scene:
     def __len__(self) -> int:
         return len(self.radii)
 
+    def to(self, dtype: torch.dtype) -> Scene:
+        return Scene(self.centres.to(dtype), self.radii.to(dtype), self.colours.to(dtype))
+
 
 def sample_scene(
     count: int, radius_range: tuple[float, float], generator: torch.Generator, margin: float = 1.0

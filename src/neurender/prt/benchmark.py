@@ -17,8 +17,9 @@ import scipy.ndimage
 
 from neurender import io
 from neurender.prt import transfer
-from neurender.prt.data import ray_offset, stable_seed
+from neurender.prt.data import ray_offset
 from neurender.prt.geometry_image import grid_faces, grid_normals
+from neurender.rng import stable_seed
 
 
 def _best_of(fn, repeats: int = 2) -> float:

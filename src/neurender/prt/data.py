@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import logging
 import time
-import zlib
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -34,16 +32,12 @@ from neurender.prt.geometry_image import (
     grid_faces,
     reconstruction_error,
 )
+from neurender.rng import stable_seed
 
 log = logging.getLogger(__name__)
 
 SPLITS = ("train", "val", "test")
 COLOURS = ("r", "g", "b")
-
-
-def stable_seed(*parts: Any) -> list[int]:
-    """A numpy seed sequence from ints and strings (strings hashed with CRC32, not ``hash``)."""
-    return [p if isinstance(p, int) else zlib.crc32(str(p).encode()) for p in parts]
 
 
 # ---------------------------------------------------------------- light probes

@@ -1,0 +1,72 @@
+"""Metaball examples (thesis 4.1, 5.2): scenes, circle inputs and ray-marched targets as AB PNGs.
+
+Files: ``{split}/example_XXXXX.png`` (AB images, :mod:`neurender.metaballs.ab`) and
+``{split}_manifest.csv`` with one row per example: ``example, split, file, balls,
+min_depth_separation`` (smallest centre-depth gap between two balls whose projected
+circles overlap, world units; NaN if none overlap), ``coverage`` (fraction of pixels on
+the surface) and ``seconds`` (ray marching).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pandas as pd
+import torch
+from tqdm import tqdm
+
+from neurender import io
+from neurender.metaballs import ab, inputs, raymarch, scenes
+from neurender.rng import torch_generator
+
+
+def min_overlap_depth_gap(scene: scenes.Scene, width: int) -> float:
+    """Smallest centre-depth gap between two balls whose projected circles overlap."""
+    centre = scenes.project(scene.centres, width)
+    radius = inputs.projected_radius(scene, width)
+    depth = scene.centres.norm(dim=1)
+    overlap = torch.cdist(centre, centre) < radius[:, None] + radius[None, :]
+    overlap.fill_diagonal_(False)
+    gaps = (depth[:, None] - depth[None, :]).abs()[overlap]
+    return float(gaps.min()) if len(gaps) else float("nan")
+
+
+def generate_split(split: str, cfg: dict, threads: int, out_dir: str, manifest: str) -> None:
+    """Write the AB examples of one split and their manifest.
+
+    Args:
+        cfg: ``seed``, ``width``, ``examples`` (per split), ``balls`` [min, max],
+            ``radius`` [min, max].
+    """
+    torch.set_num_threads(threads)
+    width = cfg["width"]
+    lo, hi = cfg["balls"]
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i in tqdm(range(cfg["examples"][split]), desc=f"metaballs {split}", mininterval=2.0):
+        gen = torch_generator(cfg["seed"], "metaballs", split, i)
+        count = int(torch.randint(lo, hi + 1, (1,), generator=gen))
+        # float32 marching is twice as fast and still far below the 1e-3 depth tolerance.
+        scene = scenes.sample_scene(count, tuple(cfg["radius"]), gen).to(torch.float32)
+        start = time.perf_counter()
+        buffers = raymarch.render_gbuffers(scene, width)
+        seconds = time.perf_counter() - start
+        image = ab.pack(
+            inputs.draw_inputs(scene, width), buffers.colour, buffers.depth, buffers.normal
+        )
+        file = out / f"example_{i:05d}.png"
+        ab.write_ab(file, image)
+        rows.append(
+            {
+                "example": i,
+                "split": split,
+                "file": file.name,
+                "balls": count,
+                "min_depth_separation": min_overlap_depth_gap(scene, width),
+                "coverage": float(buffers.mask.float().mean()),
+                "seconds": seconds,
+            }
+        )
+    io.write_csv(manifest, pd.DataFrame(rows))
