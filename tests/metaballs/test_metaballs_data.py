@@ -85,6 +85,8 @@ def test_generate_split_is_deterministic_and_round_trips(tmp_path):
     m = io.read_csv(tmp_path / "a.csv", ["balls", "coverage", "min_depth_separation"])
     assert len(m) == 3 and m.balls.between(2, 5).all()
     for f in m.file:
-        np.testing.assert_array_equal(io.read_png(tmp_path / "a" / f), io.read_png(tmp_path / "b" / f))
+        np.testing.assert_array_equal(
+            io.read_png(tmp_path / "a" / f), io.read_png(tmp_path / "b" / f)
+        )
     back = ab.read_ab(tmp_path / "a" / m.file[0])
     assert back["inputs"].shape == (4, 16, 16)

@@ -27,7 +27,9 @@ def test_patchgan_receptive_field_is_70_pixels():
 
 def test_init_weights_statistics():
     g = init_weights(UnetGenerator(4, 7, num_downs=5, ngf=16))
-    w = torch.cat([m.weight.detach().flatten() for m in g.modules() if isinstance(m, torch.nn.Conv2d)])
+    w = torch.cat(
+        [m.weight.detach().flatten() for m in g.modules() if isinstance(m, torch.nn.Conv2d)]
+    )
     assert abs(float(w.std()) - 0.02) < 0.002
 
 
