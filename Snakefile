@@ -11,6 +11,7 @@ configfile: "config/config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/prt.smk"
 include: "workflow/rules/prt_model.smk"
+include: "workflow/rules/metaballs.smk"
 include: "workflow/rules/report.smk"
 
 

@@ -31,3 +31,22 @@ def test_paper_numbers_are_tidy():
     p = report.paper_numbers()
     assert {"method", "source", "metric", "value"} <= set(p.columns)
     assert set(p.method) <= {s.key for s in report.SECTIONS}
+
+
+def test_a_section_with_data_but_no_metrics_says_so(tmp_path):
+    res = tmp_path / "results" / "metaballs"
+    df = pd.DataFrame(
+        {
+            "method": ["metaballs"],
+            "dataset": ["examples"],
+            "model": ["ray marcher"],
+            "split": ["train"],
+            "metric": ["examples"],
+            "value": [10.0],
+        }
+    )
+    io.write_csv(res / "data.csv", df)
+    report.build_report([res / "data.csv"], [], tmp_path / "r.html")
+    html = (tmp_path / "r.html").read_text()
+    assert "Only the data stage of this method has run" in html
+    assert html.count("has not been run") == 3

@@ -54,7 +54,7 @@ def prt_all_objects():
 
 def report_tables():
     tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
-    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables()
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + ["results/metaballs/data.csv"]
 
 
 def report_figures():
@@ -64,7 +64,7 @@ def report_figures():
     fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
-    return frames + experiments + fixed
+    return frames + experiments + fixed + ["results/metaballs/figures/examples.png"]
 
 
 def prt_subset(*keys):
@@ -106,3 +106,10 @@ def prt_sequence_gim(wildcards):
 
 def prt_experiment_tables():
     return expand("results/prt/{experiment}/experiment.csv", experiment=PRT_EXPERIMENTS)
+
+
+METABALL_SPLITS = ("train", "val", "test")
+
+
+def metaballs_params():
+    return {"seed": config["seed"], **config["metaballs"]}

@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from neurender import io
 from neurender.metaballs import ab, inputs, raymarch, scenes
+from neurender.plots import plt, save_figure
 from neurender.rng import torch_generator
 
 
@@ -70,3 +71,51 @@ def generate_split(split: str, cfg: dict, threads: int, out_dir: str, manifest: 
             }
         )
     io.write_csv(manifest, pd.DataFrame(rows))
+
+
+def summarise(
+    manifests: list[str], out_csv: str, out_png: str, example_dirs: list[str], count: int = 4
+) -> None:
+    """Tidy per-split statistics of the examples and a strip of AB images."""
+    rows = []
+    for path in manifests:
+        m = io.read_csv(path, ["split", "balls", "coverage", "seconds"])
+        split = str(m["split"].iloc[0])
+        stats = {
+            "examples": len(m),
+            "balls_mean": m["balls"].mean(),
+            "coverage_mean": m["coverage"].mean(),
+            "min_depth_separation_median": m["min_depth_separation"].median(),
+            "raymarch_seconds_per_example": m["seconds"].mean(),
+        }
+        rows += [
+            {
+                "method": "metaballs",
+                "dataset": "examples",
+                "model": "ray marcher",
+                "split": split,
+                "metric": k,
+                "value": float(v),
+            }
+            for k, v in stats.items()
+        ]
+    io.write_csv(out_csv, pd.DataFrame(rows))
+    files = sorted(Path(example_dirs[0]).glob("example_*.png"))[:count]
+    fig, axes = plt.subplots(len(files), 1, figsize=(7.5, 2.6 * len(files)), squeeze=False)
+    for ax, f in zip(axes[:, 0], files, strict=True):
+        x = ab.read_ab(f)
+        panels = [
+            x["inputs"][:3],
+            x["inputs"][3:].expand(3, -1, -1),
+            x["colour"],
+            x["depth"].expand(3, -1, -1),
+            x["normal"],
+        ]
+        ax.imshow(torch.cat(panels, 2).permute(1, 2, 0).numpy())
+        ax.set_title(
+            f"{f.stem}: input colour | input depth | target colour | target depth | target normal",
+            fontsize=7,
+        )
+        ax.axis("off")
+    fig.tight_layout()
+    save_figure(fig, out_png)

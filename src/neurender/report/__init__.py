@@ -122,6 +122,9 @@ def build_report(
                 "title": section.title,
                 "source": section.paper,
                 "ran": bool(own_tables or own_figures),
+                # A stage's model results always land in metrics.csv; without it only data exist.
+                "data_only": bool(own_tables or own_figures)
+                and not any(t.stem == "metrics" for t in own_tables),
                 "tables": [
                     {
                         "caption": t.stem.replace("_", " "),

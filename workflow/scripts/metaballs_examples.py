@@ -1,0 +1,11 @@
+from neurender.logs import log_to_file
+from neurender.metaballs.data import generate_split
+
+log_to_file(snakemake.log[0])
+generate_split(
+    snakemake.wildcards.split,
+    snakemake.params.cfg,
+    snakemake.threads,
+    snakemake.output.examples,
+    snakemake.output.manifest,
+)
