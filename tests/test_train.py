@@ -104,3 +104,38 @@ def test_resolve_device_and_config_errors():
             train.resolve_device("cuda")
     with pytest.raises(KeyError, match="unknown training keys \\['epochz'\\]"):
         train.TrainConfig.from_dict({"epochz": 3})
+
+
+def test_adversary_is_trained_after_each_step_and_saved(tmp_path):
+    train_set, val_set = _problem()
+    critic = torch.nn.Linear(1, 1)
+    before = critic.weight.detach().clone()
+    seen = {"aux": 0}
+
+    def gen_loss(model, batch):
+        x, y = batch
+        fake = model(x)
+        # the model is also pushed by the critic (its gradient must not update the critic)
+        return torch.nn.functional.mse_loss(fake, y) + 0.01 * critic(fake).mean(), {}, fake.detach()
+
+    def critic_loss(module, batch, fake):
+        seen["aux"] += 1
+        _, y = batch
+        return module(fake).mean() - module(y).mean(), {"gap": 0.0}
+
+    adv = train.Adversary(critic, critic_loss)
+    train.fit(
+        _model(),
+        train_set,
+        val_set,
+        gen_loss,
+        _cfg(2),
+        tmp_path / "g.pt",
+        tmp_path / "g.csv",
+        adversary=adv,
+    )
+    assert seen["aux"] == 2 * 4  # one adversary step per model step
+    assert not torch.equal(before, critic.weight.detach())
+    ckpt = train.load_checkpoint(tmp_path / "g.pt")
+    torch.testing.assert_close(ckpt["adversary"]["weight"], critic.weight.detach())
+    assert "adversary_loss" in set(pd.read_csv(tmp_path / "g.csv").metric)

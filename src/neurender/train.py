@@ -32,7 +32,20 @@ from neurender import io
 
 log = logging.getLogger(__name__)
 
-LossFn = Callable[[torch.nn.Module, Any], tuple[torch.Tensor, Mapping[str, float]]]
+LossFn = Callable[[torch.nn.Module, Any], tuple]
+
+
+@dataclasses.dataclass
+class Adversary:
+    """A second network trained against the model (a GAN discriminator).
+
+    After each model step, ``loss_fn(module, batch, aux)`` gives the adversary's loss, where
+    ``aux`` is the third value the model's loss function returned (e.g. the detached fake
+    images), and the adversary takes its own Adam step with the model's hyper-parameters.
+    """
+
+    module: torch.nn.Module
+    loss_fn: Callable[[torch.nn.Module, Any, Any], tuple[torch.Tensor, Mapping[str, float]]]
 
 
 @dataclasses.dataclass
@@ -122,7 +135,7 @@ def _evaluate(model, loader, loss_fn, device) -> dict[str, float]:
     count = 0
     with torch.no_grad():
         for batch in loader:
-            loss, logs = loss_fn(model, to_device(batch, device))
+            loss, logs, *_ = loss_fn(model, to_device(batch, device))
             n = len(next(iter(batch.values())) if isinstance(batch, Mapping) else batch[0])
             for key, value in {"loss": loss.item(), **logs}.items():
                 sums[key] = sums.get(key, 0.0) + float(value) * n
@@ -139,19 +152,22 @@ def fit(
     checkpoint_path: str | Path,
     log_path: str | Path,
     extra_state: Mapping[str, Any] | None = None,
+    adversary: Adversary | None = None,
 ) -> pd.DataFrame:
     """Train ``model`` with Adam and write its final checkpoint and loss log.
 
     Args:
         model: module; moved to the resolved device.
         train_set, val_set: map-style datasets yielding tensors, tuples or dicts of tensors.
-        loss_fn: ``(model, batch) -> (scalar loss, {name: float})``; the batch is
-            already on the device.
+        loss_fn: ``(model, batch) -> (scalar loss, {name: float})`` or ``(loss, logs,
+            aux)`` with ``aux`` handed to the adversary; the batch is already on the device.
         config: training hyper-parameters.
         checkpoint_path: final checkpoint (``torch.save`` dict with ``model`` = the weights
             of the best validation epoch, ``last_model``, ``config``, ``history``, ``extra``).
         log_path: tidy CSV of losses, columns ``epoch, split, metric, value``.
         extra_state: stored under ``extra`` in the checkpoint (e.g. target normalisation).
+        adversary: optional discriminator, trained after every model step and stored in
+            the checkpoint as ``adversary``.
 
     Returns:
         The loss history as a tidy data frame.
@@ -163,6 +179,12 @@ def fit(
     )
     steps_per_epoch = math.ceil(len(train_set) / config.batch_size)
     scheduler = _make_scheduler(optimizer, config, config.epochs * steps_per_epoch)
+    adv_optimizer = None
+    if adversary is not None:
+        adversary.module.to(device)
+        adv_optimizer = torch.optim.Adam(
+            adversary.module.parameters(), lr=config.lr, betas=config.betas
+        )
     config_dict = dataclasses.asdict(config)
     config_dict.pop("device")  # the same run may resume on another device
     config_dict.pop("threads")
@@ -177,6 +199,9 @@ def fit(
             optimizer.load_state_dict(state["optimizer"])
             scheduler.load_state_dict(state["scheduler"])
             torch.set_rng_state(state["torch_rng"])
+            if adversary is not None:
+                adversary.module.load_state_dict(state["adversary"])
+                adv_optimizer.load_state_dict(state["adversary_optimizer"])
             start_epoch, best_val = state["epoch"], state["best_val"]
             best_state, history = state["best_model"], state["history"]
             log.info("resuming %s after epoch %d", checkpoint_path, start_epoch)
@@ -193,22 +218,30 @@ def fit(
     )
     for epoch in epochs:
         model.train()
+        if adversary is not None:
+            adversary.module.train()
         shuffle = torch.Generator().manual_seed(config.seed * 100_003 + epoch)
         loader = DataLoader(
             train_set, batch_size=config.batch_size, shuffle=True, generator=shuffle
         )
         sums: dict[str, float] = {}
         for step, batch in enumerate(loader):
-            loss, logs = loss_fn(model, to_device(batch, device))
-            if not torch.isfinite(loss):
-                raise FloatingPointError(
-                    f"training loss became {loss.item()} at epoch {epoch + 1}, step {step + 1} "
-                    f"(checkpoint {checkpoint_path}); lower the learning rate or check the data"
-                )
+            batch = to_device(batch, device)
+            loss, logs, *aux = loss_fn(model, batch)
+            _check_finite(loss, "training", epoch, step, checkpoint_path)
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             optimizer.step()
             scheduler.step()
+            if adversary is not None:
+                adv_loss, adv_logs = adversary.loss_fn(
+                    adversary.module, batch, aux[0] if aux else None
+                )
+                _check_finite(adv_loss, "adversary", epoch, step, checkpoint_path)
+                adv_optimizer.zero_grad(set_to_none=True)  # drops what the model's loss left
+                adv_loss.backward()
+                adv_optimizer.step()
+                logs = {**logs, "adversary_loss": adv_loss.item(), **adv_logs}
             for key, value in {"loss": loss.item(), **logs}.items():
                 sums[key] = sums.get(key, 0.0) + float(value)
         row = {f"train_{k}": v / max(steps_per_epoch, 1) for k, v in sums.items()}
@@ -233,6 +266,14 @@ def fit(
                 "best_model": best_state,
                 "history": history,
                 "config": config_dict,
+                **(
+                    {
+                        "adversary": adversary.module.state_dict(),
+                        "adversary_optimizer": adv_optimizer.state_dict(),
+                    }
+                    if adversary is not None
+                    else {}
+                ),
             },
             resume_path,
         )
@@ -245,6 +286,7 @@ def fit(
         "history": history,
         "best_val": best_val,
         "extra": dict(extra_state or {}),
+        **({"adversary": adversary.module.state_dict()} if adversary is not None else {}),
     }
     _atomic_torch_save(final, Path(checkpoint_path))
     io.write_csv(log_path, history_frame(history))
@@ -252,6 +294,14 @@ def fit(
     if best_state is not None:
         model.load_state_dict(best_state)
     return history_frame(history)
+
+
+def _check_finite(loss: torch.Tensor, what: str, epoch: int, step: int, checkpoint_path) -> None:
+    if not torch.isfinite(loss):
+        raise FloatingPointError(
+            f"{what} loss became {loss.item()} at epoch {epoch + 1}, step {step + 1} "
+            f"(checkpoint {checkpoint_path}); lower the learning rate or check the data"
+        )
 
 
 def history_frame(history: list[Mapping[str, Any]]) -> pd.DataFrame:

@@ -54,7 +54,7 @@ def prt_all_objects():
 
 def report_tables():
     tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
-    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + ["results/metaballs/data.csv"]
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + metaballs_tables()
 
 
 def report_figures():
@@ -64,7 +64,7 @@ def report_figures():
     fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
-    return frames + experiments + fixed + ["results/metaballs/figures/examples.png"]
+    return frames + experiments + fixed + metaballs_figures()
 
 
 def prt_subset(*keys):
@@ -111,5 +111,26 @@ def prt_experiment_tables():
 METABALL_SPLITS = ("train", "val", "test")
 
 
+METABALL_VARIANTS = ("pix2pix", "l1only")
+
+
 def metaballs_params():
     return {"seed": config["seed"], **config["metaballs"]}
+
+
+def metaballs_model_params(wildcards):
+    """Data and model keys; the L1-only ablation is pix2pix with no GAN term."""
+    cfg = {"device": config["device"], **metaballs_params(), **config["metaballs_model"]}
+    if wildcards.get("variant") == "l1only":
+        cfg["gan_weight"] = 0.0
+    return cfg
+
+
+def metaballs_tables():
+    return expand("results/metaballs/{table}.csv", table=("targets", "metrics", "timing", "data"))
+
+
+def metaballs_figures():
+    names = ("comparison", "accuracy_by_scene", "demo_network_vs_raymarch", "temporal_stability")
+    names += ("frame_time_vs_balls", "examples")
+    return expand("results/metaballs/figures/{name}.png", name=names) + ["results/metaballs/figures/demo.gif"]

@@ -34,3 +34,95 @@ rule metaballs_summary:
         "../envs/neurender.yaml"
     script:
         "../scripts/metaballs_summary.py"
+
+
+rule metaballs_train:
+    input:
+        train_dir="results/metaballs/train",
+        train_manifest="results/metaballs/train_manifest.csv",
+        val_dir="results/metaballs/val",
+        val_manifest="results/metaballs/val_manifest.csv",
+    output:
+        checkpoint="results/metaballs/{variant}.pt",
+        loss="results/metaballs/{variant}_loss.csv",
+    params:
+        cfg=metaballs_model_params,
+    log:
+        "results/logs/metaballs_train/{variant}.log",
+    benchmark:
+        "results/benchmarks/metaballs_train/{variant}.tsv"
+    threads: config["metaballs_model"]["threads"]
+    resources:
+        gpu=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/metaballs_train.py"
+
+
+rule metaballs_evaluate:
+    input:
+        test_dir="results/metaballs/test",
+        test_manifest="results/metaballs/test_manifest.csv",
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALL_VARIANTS),
+    output:
+        metrics="results/metaballs/metrics.csv",
+        examples="results/metaballs/metrics_examples.csv",
+        by_scene="results/metaballs/accuracy_by_scene.csv",
+        figure=report("results/metaballs/figures/comparison.png", category="Metaballs"),
+        scene_figure=report("results/metaballs/figures/accuracy_by_scene.png", category="Metaballs"),
+    params:
+        cfg=metaballs_model_params,
+        variants=METABALL_VARIANTS,
+    log:
+        "results/logs/metaballs_evaluate/metaballs_evaluate.log",
+    benchmark:
+        "results/benchmarks/metaballs_evaluate/metaballs_evaluate.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/metaballs_evaluate.py"
+
+
+rule metaballs_demo:
+    input:
+        checkpoint="results/metaballs/pix2pix.pt",
+    output:
+        frames="results/metaballs/demo_frames.csv",
+        timing="results/metaballs/timing.csv",
+        balls="results/metaballs/frame_time_vs_balls.csv",
+        balls_png=report("results/metaballs/figures/frame_time_vs_balls.png", category="Metaballs"),
+        gif=report("results/metaballs/figures/demo.gif", category="Metaballs"),
+        strip=report("results/metaballs/figures/demo_network_vs_raymarch.png", category="Metaballs"),
+        stability=report("results/metaballs/figures/temporal_stability.png", category="Metaballs"),
+    params:
+        cfg=metaballs_model_params,
+    log:
+        "results/logs/metaballs_demo/metaballs_demo.log",
+    benchmark:
+        "results/benchmarks/metaballs_demo/metaballs_demo.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/metaballs_demo.py"
+
+
+rule metaballs_targets:
+    input:
+        metrics="results/metaballs/metrics.csv",
+        timing="results/metaballs/timing.csv",
+    output:
+        targets="results/metaballs/targets.csv",
+    params:
+        paper_scale=config["metaballs"]["width"] >= 512,
+    log:
+        "results/logs/metaballs_targets/metaballs_targets.log",
+    benchmark:
+        "results/benchmarks/metaballs_targets/metaballs_targets.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/metaballs_targets.py"

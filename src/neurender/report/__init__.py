@@ -89,8 +89,11 @@ def _render_table(frame: pd.DataFrame) -> str:
     return _table_html(frame.map(_format_value))
 
 
-def _embed_png(path: Path) -> str:
-    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+def _embed_image(path: Path) -> str:
+    mime = {".png": "image/png", ".gif": "image/gif"}.get(path.suffix.lower())
+    if mime is None:
+        raise ValueError(f"figure {path}: expected a .png or .gif file")
+    return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
 def build_report(
@@ -134,7 +137,8 @@ def build_report(
                     for t in own_tables
                 ],
                 "figures": [
-                    {"caption": f.stem.replace("_", " "), "src": _embed_png(f)} for f in own_figures
+                    {"caption": f.stem.replace("_", " "), "src": _embed_image(f)}
+                    for f in own_figures
                 ],
                 "paper": _table_html(paper.map(_format_value)) if len(paper) else "",
             }
