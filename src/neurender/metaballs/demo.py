@@ -52,10 +52,14 @@ def animated_scene(base: scenes.Scene, frame: int, frames: int) -> scenes.Scene:
     return scenes.Scene(centres, base.radii, base.colours)
 
 
-def _timed(fn, *args):
-    start = time.perf_counter()
-    out = fn(*args)
-    return out, time.perf_counter() - start
+def _timed(fn, *args, repeats: int = 1):
+    """Result of ``fn(*args)`` and its median wall time in seconds over ``repeats`` calls."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = fn(*args)
+        times.append(time.perf_counter() - start)
+    return out, float(np.median(times))
 
 
 def run_demo(
@@ -83,6 +87,7 @@ def run_demo(
         torch.float32
     )
     rows, pictures, silhouettes = [], [], []
+    renderer(inputs.draw_inputs(base, width).float()[None])  # warm-up: first calls allocate
     for f in range(count):
         scene = animated_scene(base, f, count)
         circles, t_in = _timed(inputs.draw_inputs, scene, width)
@@ -134,9 +139,9 @@ def run_demo(
         scene = scenes.sample_scene(
             n, tuple(cfg["radius"]), torch_generator(cfg["seed"], "timing", n)
         ).to(torch.float32)
-        circles, t_in = _timed(inputs.draw_inputs, scene, width)
-        _, t_net = _timed(renderer, circles.float()[None])
-        _, t_march = _timed(raymarch.render_gbuffers, scene, width)
+        circles, t_in = _timed(inputs.draw_inputs, scene, width, repeats=3)
+        _, t_net = _timed(renderer, circles.float()[None], repeats=3)
+        _, t_march = _timed(raymarch.render_gbuffers, scene, width, repeats=3)
         ball_rows.append(
             {"balls": n, "network_ms": 1e3 * (t_in + t_net), "raymarch_ms": 1e3 * t_march}
         )

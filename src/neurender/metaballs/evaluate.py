@@ -167,8 +167,8 @@ def evaluate_models(
                         "value": value,
                     }
                 )
-        if visual is None and ex["balls"] >= 8:
-            visual = (parts["inputs"], gt, preds)
+        if visual is None or ex["balls"] > visual[0]:  # show the busiest scene
+            visual = (int(ex["balls"]), parts["inputs"], gt, preds)
     frame = pd.DataFrame(rows)
     io.write_csv(examples_out, frame)
     keys = ["method", "dataset", "model", "split", "metric"]
@@ -181,7 +181,7 @@ def evaluate_models(
     by_scene = pd.concat([by_balls, by_gap.assign(by="min_depth_separation")], ignore_index=True)
     io.write_csv(by_scene_out, by_scene)
     _accuracy_figure(by_scene, scene_figure_out)
-    _visual_figure(visual, figure_out)
+    _visual_figure(visual[1:], figure_out)
 
 
 def _accuracy_figure(by_scene: pd.DataFrame, out: str) -> None:
