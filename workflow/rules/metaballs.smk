@@ -11,7 +11,7 @@ rule metaballs_examples:
         "results/logs/metaballs_examples/{split}.log",
     benchmark:
         "results/benchmarks/metaballs_examples/{split}.tsv"
-    threads: 1
+    threads: workflow.cores
     conda:
         "../envs/neurender.yaml"
     script:

@@ -1,0 +1,76 @@
+import numpy as np
+import pytest
+import torch
+
+from neurender.metaballs import demo, evaluate, raymarch, scenes
+
+
+def _scene(centres, radii):
+    c = torch.tensor(centres, dtype=torch.float64)
+    return scenes.Scene(
+        c, torch.tensor(radii, dtype=torch.float64), torch.rand(len(c), 3, dtype=torch.float64)
+    )
+
+
+def test_isolated_sphere_baseline_equals_the_field_for_one_ball():
+    scene = _scene([[1.0, -0.5, 14.0]], [1.5])
+    a = evaluate.stack(evaluate.isolated_spheres(scene, 40))
+    b = evaluate.stack(raymarch.render_gbuffers(scene, 40))
+    inside = evaluate.silhouette_depth(b) & evaluate.silhouette_depth(a)
+    assert evaluate.iou(evaluate.silhouette_depth(a), evaluate.silhouette_depth(b)) > 0.97
+    np.testing.assert_allclose(a[3][inside], b[3][inside], atol=1e-5)
+    assert evaluate.normal_angles(a, b, inside).max() < 0.1
+
+
+def test_blended_balls_differ_from_isolated_spheres():
+    scene = _scene([[0.0, 0.0, 14.0], [1.6, 0.0, 14.0]], [1.2, 1.2])
+    a = evaluate.stack(evaluate.isolated_spheres(scene, 48))
+    b = evaluate.stack(raymarch.render_gbuffers(scene, 48))
+    m = evaluate.example_metrics(a, b)
+    assert m["iou_depth"] < 0.98 and m["normal_error_mean_deg"] > 1.0  # blending is missing
+
+
+def test_perfect_prediction_scores_perfectly():
+    scene = _scene([[0.0, 0.0, 12.0], [1.0, 1.0, 16.0]], [1.0, 1.5])
+    g = evaluate.stack(raymarch.render_gbuffers(scene, 32))
+    m = evaluate.example_metrics(g, g)
+    assert m["iou_depth"] == 1.0 and m["iou_normal"] == 1.0
+    assert m["l1_colour"] == 0.0 and m["depth_error_world"] == 0.0
+    assert m["normal_error_mean_deg"] == pytest.approx(0.0, abs=0.05)
+    assert m["ssim_normal"] == pytest.approx(1.0, abs=1e-4)
+
+
+def test_binned_means():
+    import pandas as pd
+
+    frame = pd.DataFrame(
+        {
+            "model": ["a"] * 4,
+            "balls": [1, 2, 8, 9],
+            "metric": ["x"] * 4,
+            "value": [1.0, 3.0, 5.0, 7.0],
+        }
+    )
+    out = evaluate.binned(frame, "balls", [0, 5, 10])
+    assert out.value.tolist() == [2.0, 6.0]
+
+
+def test_shading_lambert_and_background():
+    scene = _scene([[0.0, 0.0, 12.0]], [2.0])
+    g = evaluate.stack(raymarch.render_gbuffers(scene, 32))
+    lit = demo.shade(g)
+    bg = ~evaluate.silhouette_depth(g)
+    assert (lit[:, bg] == 0).all()
+    # a surface point facing the light is brighter than one facing away
+    light = torch.tensor(demo.LIGHT_DIR) / torch.tensor(demo.LIGHT_DIR).norm()
+    n = g[4:7] * 2 - 1
+    facing = (n * light[:, None, None]).sum(0)
+    fg = ~bg
+    assert lit.mean(0)[fg & (facing > 0.8)].mean() > lit.mean(0)[fg & (facing < 0.0)].mean()
+
+
+def test_animated_scene_keeps_radii_and_moves_balls():
+    scene = _scene([[0.0, 0.0, 12.0], [1.0, 1.0, 16.0]], [1.0, 1.5])
+    a, b = demo.animated_scene(scene, 0, 10), demo.animated_scene(scene, 3, 10)
+    assert torch.equal(a.radii, scene.radii)
+    assert (a.centres - b.centres).norm(dim=1).min() > 0.05
