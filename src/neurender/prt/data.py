@@ -148,9 +148,9 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
 
     Train and val are one smooth sequence (val frames a random subset, as the paper's
     450/50 split); test frames lie outside it: unseen blendshape combinations with weights
-    up to 1.3 (head), a separately seeded simulation (cloth), or unseen lattice motion
-    (creature, user meshes). ``head_linear``: S_lin = a S_head + (1 - a) S_plane with a in
-    [0, 1] for training and evenly spaced a over ``linear_range`` for test.
+    up to 1.3 (head), a separately seeded simulation (cloth; training joins four), or
+    unseen lattice motion (creature, user meshes). ``head_linear``: S_lin = a S_head +
+    (1 - a) S_plane with a in [0, 1] for training, evenly spaced over ``linear_range`` for test.
     ``head_excluded``: the head without the ``excluded_expression`` blendshape in training;
     test shapes move from the mean training shape to that expression.
     """
@@ -203,8 +203,11 @@ def _head_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
     return seq_pos, weights, deform.apply_blendshapes(rest, deltas, test_w), test_w, extrapolated
 
 
-def _cloth_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg):
-    seq_pos = deform.simulate_cloth(rest, seq_len, rng)
+def _cloth_sequences(gim, rest, seq_len, n_test, rng, test_rng, cfg, simulations: int = 4):
+    """Training: ``simulations`` runs with their own sphere position and wind, back to back
+    (one run shows too few fold configurations to generalise); test: one more run."""
+    lengths = [len(c) for c in np.array_split(np.arange(seq_len), simulations) if len(c)]
+    seq_pos = np.concatenate([deform.simulate_cloth(rest, n, rng) for n in lengths])
     test_pos = deform.simulate_cloth(rest, n_test, test_rng)
     seq_params, test_params = _pca_params(seq_pos, test_pos)
     return seq_pos, seq_params, test_pos, test_params, np.zeros(n_test, bool)
