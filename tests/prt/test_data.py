@@ -16,6 +16,10 @@ CFG = {
     "directions": 16,
     "probe_height": 16,
     "noise_floor_frames": 1,
+    "experiment_train_frames": 2,
+    "experiment_points": 3,
+    "linear_range": [-0.25, 1.25],
+    "excluded_expression": "jaw_open",
 }
 
 
@@ -81,3 +85,22 @@ def test_missing_light_file_is_named(head):
             head / "x",
             head / "x.csv",
         )
+
+
+@pytest.mark.parametrize("name", ["head_linear", "head_excluded"])
+def test_experiment_sequences(head, name):
+    data.make_sequence(name, head / "gim.npz", CFG, head / f"{name}.npz")
+    seq = io.load_npz(head / f"{name}.npz")
+    assert len(seq["train_positions"]) == 2 and len(seq["test_positions"]) == 3
+    if name == "head_linear":
+        np.testing.assert_allclose(seq["test_params"][:, 0], [-0.25, 0.5, 1.25])
+        assert seq["test_extrapolated"].tolist() == [True, False, True]
+        # a = 0 is the flat plane, a = 1 the neutral head
+        rest = io.load_npz(head / "gim.npz")["rest"]
+        mid = 0.5 * rest
+        mid[..., :2] = rest[..., :2]
+        np.testing.assert_allclose(seq["test_positions"][1], mid, atol=1e-5)
+    else:
+        k = 2  # jaw_open
+        assert (seq["train_params"][:, k] == 0).all()
+        np.testing.assert_allclose(seq["test_params"][-1], np.eye(7)[k], atol=1e-6)

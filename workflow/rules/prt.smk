@@ -46,7 +46,9 @@ rule prt_sequence:
     output:
         seq="results/prt/{object}/sequence.npz",
     params:
-        cfg=prt_subset("frames", "experiment_points", "linear_range", "excluded_expression"),
+        cfg=prt_subset(
+            "frames", "experiment_points", "experiment_train_frames", "linear_range", "excluded_expression"
+        ),
     log:
         "results/logs/prt_sequence/{object}.log",
     benchmark:

@@ -159,7 +159,7 @@ def make_sequence(name: str, gim_path: str, cfg: dict, out: str) -> None:
     rest = gim["rest"].astype(np.float64)
     n_train, n_val, n_test = (cfg["frames"][s] for s in SPLITS)
     if kind in EXPERIMENTS:
-        n_test = cfg["experiment_points"]
+        n_train, n_test = min(n_train, cfg["experiment_train_frames"]), cfg["experiment_points"]
     seq_len = n_train + n_val
     rng = np.random.default_rng(stable_seed(cfg["seed"], name, "sequence"))
     test_rng = np.random.default_rng(stable_seed(cfg["seed"], name, "test"))
