@@ -64,29 +64,28 @@ def _format_value(v: object) -> str:
 
 
 def _table_html(frame: pd.DataFrame) -> str:
-    return frame.to_html(
-        index=False,
-        border=0,
-        classes="table",
-        formatters=None,
-        float_format=None,
-        na_rep="&ndash;",
-        escape=False,
-        justify="left",
-    ).replace("<td>nan</td>", "<td>&ndash;</td>")
+    html = frame.to_html(
+        index=False, border=0, classes="table", na_rep="&ndash;", escape=False, justify="left"
+    )
+    return '<div class="scroll">' + html.replace("<td>nan</td>", "<td>&ndash;</td>") + "</div>"
 
 
 def _render_table(frame: pd.DataFrame) -> str:
-    """A tidy metric table is pivoted (one column per metric); anything else is shown as is."""
-    if set(TIDY_COLUMNS) <= set(frame.columns):
-        index = [c for c in frame.columns if c not in ("method", "metric", "value")]
+    """A tidy metric table becomes one pivoted table per split (one column per metric, so
+    timing rows do not widen the test table); anything else is shown as is."""
+    if not set(TIDY_COLUMNS) <= set(frame.columns):
+        return _table_html(frame.map(_format_value))
+    parts = []
+    for split, rows in frame.groupby("split", sort=False):
+        index = [c for c in rows.columns if c not in ("method", "split", "metric", "value")]
         # Metrics with one value per frame are averaged; the CSV keeps every row.
-        wide = frame.pivot_table(
+        wide = rows.pivot_table(
             index=index, columns="metric", values="value", aggfunc="mean", sort=False
         )
-        frame = wide.reset_index()
-        frame.columns.name = None
-    return _table_html(frame.map(_format_value))
+        wide = wide.dropna(axis=1, how="all").reset_index()
+        wide.columns.name = None
+        parts.append(f"<h4>{split}</h4>" + _table_html(wide.map(_format_value)))
+    return "\n".join(parts)
 
 
 def _embed_image(path: Path) -> str:
