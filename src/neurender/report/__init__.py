@@ -9,6 +9,7 @@ produced anything says so. Figures are embedded as data URIs so the file opens f
 from __future__ import annotations
 
 import base64
+import html
 import dataclasses
 import datetime
 from collections.abc import Sequence
@@ -60,7 +61,7 @@ def _format_value(v: object) -> str:
         if v != v:  # NaN
             return "&ndash;"
         return f"{v:.4g}" if abs(v) < 1e5 else f"{v:,.0f}"
-    return str(v)
+    return html.escape(str(v))  # cells are inserted unescaped so that NaN can be a dash
 
 
 def _table_html(frame: pd.DataFrame) -> str:
