@@ -50,3 +50,12 @@ def test_a_section_with_data_but_no_metrics_says_so(tmp_path):
     html = (tmp_path / "r.html").read_text()
     assert "Only the data stage of this method has run" in html
     assert html.count("has not been run") == 3
+
+
+def test_table_cells_are_escaped(tmp_path):
+    res = tmp_path / "results" / "metaballs"
+    io.write_csv(
+        res / "targets.csv", pd.DataFrame({"check": ["error <= 15 deg & <b>"], "met": [True]})
+    )
+    report.build_report([res / "targets.csv"], [], tmp_path / "r.html")
+    assert "error &lt;= 15 deg &amp; &lt;b&gt;" in (tmp_path / "r.html").read_text()

@@ -9,9 +9,9 @@ produced anything says so. Figures are embedded as data URIs so the file opens f
 from __future__ import annotations
 
 import base64
-import html
 import dataclasses
 import datetime
+import html
 from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
@@ -65,10 +65,10 @@ def _format_value(v: object) -> str:
 
 
 def _table_html(frame: pd.DataFrame) -> str:
-    html = frame.to_html(
+    table = frame.to_html(
         index=False, border=0, classes="table", na_rep="&ndash;", escape=False, justify="left"
     )
-    return '<div class="scroll">' + html.replace("<td>nan</td>", "<td>&ndash;</td>") + "</div>"
+    return '<div class="scroll">' + table.replace("<td>nan</td>", "<td>&ndash;</td>") + "</div>"
 
 
 def _render_table(frame: pd.DataFrame) -> str:
