@@ -127,7 +127,13 @@ def train_pix2pix(
 
 
 class Pix2PixRenderer:
-    """A trained generator for inference, batch norm in eval mode (it scored better)."""
+    """A trained generator for inference, one image at a time.
+
+    As in the pix2pix authors' test code, batch norm normalises with the statistics of the
+    image being rendered: the running averages failed for the GAN-trained generator
+    (held-out IoU 0.27 against 0.73) and made no difference to the L1-only one.
+    Dropout is off.
+    """
 
     def __init__(self, checkpoint: str | Path, device: str = "auto", threads: int = 1):
         state = train.load_checkpoint(checkpoint)
@@ -136,9 +142,14 @@ class Pix2PixRenderer:
         self.model = build_generator(extra["width"], extra["ngf"])
         self.model.load_state_dict(state["model"])
         self.model.to(self.device).eval()
+        for module in self.model.modules():
+            if isinstance(module, torch.nn.BatchNorm2d):
+                module.train()
 
     @torch.no_grad()
     def __call__(self, inputs: torch.Tensor) -> torch.Tensor:
         """Inputs ``(B, 4, W, W)`` in [0, 1] to G-buffers ``(B, 7, W, W)`` in [0, 1]."""
-        out = self.model(inputs.to(self.device, torch.float32) * 2 - 1)
+        x = inputs.to(self.device, torch.float32) * 2 - 1
+        # One image per forward pass: batch statistics must not mix images.
+        out = torch.cat([self.model(x[i : i + 1]) for i in range(len(x))])
         return ((out + 1) / 2).clamp(0, 1).cpu()
