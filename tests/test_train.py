@@ -139,3 +139,9 @@ def test_adversary_is_trained_after_each_step_and_saved(tmp_path):
     ckpt = train.load_checkpoint(tmp_path / "g.pt")
     torch.testing.assert_close(ckpt["adversary"]["weight"], critic.weight.detach())
     assert "adversary_loss" in set(pd.read_csv(tmp_path / "g.csv").metric)
+
+
+def test_train_config_from_stage_picks_training_keys():
+    cfg = {"epochs": 3, "lr": 0.01, "widths": [8], "seed": 4, "device": "cpu", "threads": 9}
+    c = train.TrainConfig.from_stage(cfg, threads=2, betas=(0.5, 0.999))
+    assert (c.epochs, c.lr, c.seed, c.threads, c.betas) == (3, 0.01, 4, 2, (0.5, 0.999))

@@ -72,6 +72,14 @@ class TrainConfig:
             kwargs["betas"] = tuple(kwargs["betas"])
         return cls(**kwargs)
 
+    @classmethod
+    def from_stage(cls, cfg: Mapping[str, Any], threads: int, **overrides: Any) -> TrainConfig:
+        """The training keys of a stage's config subtree (others are ignored), plus overrides."""
+        names = {f.name for f in dataclasses.fields(cls)} - {"threads"}
+        return cls.from_dict(
+            {**{k: v for k, v in cfg.items() if k in names}, "threads": threads, **overrides}
+        )
+
 
 def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
     """Torch device for a config value; on the CPU also sets the torch thread count."""

@@ -101,16 +101,7 @@ def train_pix2pix(
         loss = 0.5 * (bce(real, torch.ones_like(real)) + bce(faked, torch.zeros_like(faked)))
         return loss, {}
 
-    config = train.TrainConfig(
-        epochs=cfg["epochs"],
-        batch_size=cfg["batch_size"],
-        lr=cfg["lr"],
-        lr_schedule=cfg["lr_schedule"],
-        betas=(0.5, 0.999),
-        seed=cfg["seed"],
-        device=cfg["device"],
-        threads=threads,
-    )
+    config = train.TrainConfig.from_stage(cfg, threads, betas=(0.5, 0.999))
     train.fit(
         generator,
         ABDataset(train_dir, train_manifest),

@@ -142,7 +142,7 @@ def train_deepprt(
     threads: int,
     checkpoint: str,
     log_csv: str,
-) -> None:
+) -> ResUNet:
     """Train one DeepPRT network (one object, one material) with the shared loop."""
     torch.manual_seed(cfg["seed"])
     norm = Normalisation.fit(train_split, material, residual=cfg["residual_targets"])
@@ -151,15 +151,7 @@ def train_deepprt(
     )
     out_channels = train_split.targets(material).shape[1]
     model = build_network(out_channels, cfg["widths"], cfg["blocks"])
-    config = train.TrainConfig(
-        epochs=cfg["epochs"],
-        batch_size=cfg["batch_size"],
-        lr=cfg["lr"],
-        lr_schedule=cfg["lr_schedule"],
-        seed=cfg["seed"],
-        device=cfg["device"],
-        threads=threads,
-    )
+    config = train.TrainConfig.from_stage(cfg, threads)
     start = time.perf_counter()
     train.fit(
         model,
