@@ -297,7 +297,9 @@ def prediction_figure(name: str, panels: dict | None, out: str) -> None:
         for ax in row:
             ax.axis("off")
         fig.colorbar(im, ax=row[3], fraction=0.046)
-    fig.suptitle(f"DeepPRT: {name}, an extrapolated test frame vs its clean reference")
+    fig.suptitle(
+        f"DeepPRT: {name}, a test frame (the first extrapolated one if any) vs its clean reference"
+    )
     fig.tight_layout()
     save_figure(fig, out)
 
