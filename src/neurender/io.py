@@ -1,4 +1,4 @@
-"""File formats: OpenEXR (named float channels), PNG (8/16-bit), tidy CSV, JSON.
+"""File formats: OpenEXR (named float channels), PNG (8/16-bit), tidy CSV, NPZ.
 
 Every writer is atomic: it writes a temporary file next to the target and renames it,
 so a crash never leaves a half-written output that Snakemake or a reader would trust.
@@ -12,7 +12,6 @@ unsigned integers (C = 1..4: grey, grey+alpha, RGB, RGBA).
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -161,20 +160,6 @@ def read_csv(path: PathLike, required: Sequence[str] = ()) -> pd.DataFrame:
     if missing:
         raise ValueError(f"CSV file {p} lacks columns {missing}; it has {list(frame.columns)}")
     return frame
-
-
-def write_json(path: PathLike, obj: object) -> None:
-    """Write JSON (sorted keys, indented) atomically."""
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
-
-
-def read_json(path: PathLike) -> object:
-    p = _require_file(path, "JSON")
-    try:
-        return json.loads(p.read_text())
-    except json.JSONDecodeError as err:
-        raise OSError(f"cannot parse JSON file {p}: {err}") from err
 
 
 def save_npz(path: PathLike, **arrays: np.ndarray) -> None:

@@ -57,12 +57,6 @@ CLAMPED_COSINE_ZONAL = (
 )
 
 
-def num_coeffs(n_bands: int) -> int:
-    """Number of SH coefficients of ``n_bands`` bands (``n_bands**2``)."""
-    check_bands(n_bands)
-    return n_bands * n_bands
-
-
 def check_bands(n_bands: int) -> None:
     if not 1 <= n_bands <= MAX_BANDS:
         raise ValueError(f"n_bands={n_bands}: expected 1..{MAX_BANDS} (bands l = 0..4)")
