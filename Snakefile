@@ -12,6 +12,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/prt.smk"
 include: "workflow/rules/prt_model.smk"
 include: "workflow/rules/metaballs.smk"
+include: "workflow/rules/simplification.smk"
 include: "workflow/rules/report.smk"
 
 

@@ -30,6 +30,7 @@ wildcard_constraints:
     probe="[A-Za-z0-9_]+",
     split="train|val|test",
     material="diffuse|glossy",
+    case="head|metaballs",
 
 
 def prt_params():
@@ -54,7 +55,7 @@ def prt_all_objects():
 
 def report_tables():
     tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
-    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + metaballs_tables()
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + metaballs_tables() + simplify_tables()
 
 
 def report_figures():
@@ -64,7 +65,7 @@ def report_figures():
     fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
-    return frames + experiments + fixed + metaballs_figures()
+    return frames + experiments + fixed + metaballs_figures() + simplify_figures()
 
 
 def prt_subset(*keys):
@@ -134,3 +135,45 @@ def metaballs_figures():
     names = ("comparison", "accuracy_by_scene", "demo_network_vs_raymarch", "temporal_stability")
     names += ("frame_time_vs_balls", "examples")
     return expand("results/metaballs/figures/{name}.png", name=names) + ["results/metaballs/figures/demo.gif"]
+
+
+SIMPLIFY_CASES = tuple(config["simplify"]["cases"])
+
+
+def simplify_params():
+    return {"seed": config["seed"], "device": config["device"], **config["simplify"]}
+
+
+SIMPLIFY_CASE_FILES = {
+    "lowpoly": "lowpoly.npz",
+    "baked_normal": "baked_normal.png",
+    "baked_albedo": "baked_albedo.png",
+    "stats": "stats.csv",
+    "test_views": "views_test.csv",
+    "test_images": "reference_test.exr",
+    "mesh": "optimised.npz",
+    "normal": "optimised_normal.png",
+    "albedo": "optimised_albedo.png",
+    "loss": "loss.csv",
+}
+
+
+def simplify_evaluate_inputs(wildcards):
+    """Every case's files, keyed ``<case>_<kind>`` as the evaluation reads them."""
+    return {
+        f"{case}_{kind}": f"results/simplification/{case}/{name}"
+        for case in SIMPLIFY_CASES
+        for kind, name in SIMPLIFY_CASE_FILES.items()
+    }
+
+
+def simplify_tables():
+    if not SIMPLIFY_CASES:
+        return []
+    return expand("results/simplification/{table}.csv", table=("targets", "metrics", "stats"))
+
+
+def simplify_figures():
+    if not SIMPLIFY_CASES:
+        return []
+    return expand("results/simplification/figures/{name}.png", name=("comparison", "loss_curves"))

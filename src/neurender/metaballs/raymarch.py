@@ -51,14 +51,17 @@ def march(
     scene: Scene,
     min_step: float = 0.02,
     bisections: int = 24,
+    near: float = MIN_DEPTH,
+    far: float = MAX_DEPTH,
 ) -> torch.Tensor:
     """Distance to the first ``F = THRESHOLD`` crossing along each ray (``inf`` if none).
 
     Args:
         origins, dirs: ``(R, 3)`` rays (dirs unit length).
         scene: the balls.
+        near, far: the searched interval of ray distances.
     """
-    t = torch.full(origins.shape[:1], MIN_DEPTH, dtype=origins.dtype, device=origins.device)
+    t = torch.full(origins.shape[:1], near, dtype=origins.dtype, device=origins.device)
     prev = t.clone()
     active = torch.ones_like(t, dtype=torch.bool)
     hit = torch.zeros_like(active)
@@ -72,7 +75,7 @@ def march(
         prev[going] = t[going]
         t[going] = t[going] + step
         active[idx[crossed]] = False
-        active[going[t[going] > MAX_DEPTH]] = False
+        active[going[t[going] > far]] = False
     lo, hi = prev[hit], t[hit]
     o, d = origins[hit], dirs[hit]
     for _ in range(bisections):
@@ -83,6 +86,17 @@ def march(
     out = torch.full_like(t, float("inf"))
     out[hit] = hi
     return out
+
+
+def surface_attributes(points: torch.Tensor, scene: Scene) -> tuple[torch.Tensor, torch.Tensor]:
+    """Blended colour ``sum c_i f_i / F`` and outward unit normal ``-grad F / |grad F|``
+    (each ``(R, 3)``) at points ``(R, 3)`` on (or near) the surface."""
+    diff = points[:, None, :] - scene.centres[None]  # (R, B, 3)
+    d2 = diff.square().sum(-1)
+    f = scene.radii.square() / d2  # (R, B)
+    colour = (f @ scene.colours) / f.sum(1, keepdim=True)
+    grad = (-2 * scene.radii.square()[None, :, None] * diff / d2[..., None].square()).sum(1)
+    return colour, -grad / grad.norm(dim=1, keepdim=True)
 
 
 def render_gbuffers(scene: Scene, width: int, chunk: int = 1 << 14) -> GBuffers:
@@ -99,13 +113,7 @@ def render_gbuffers(scene: Scene, width: int, chunk: int = 1 << 14) -> GBuffers:
     colour = torch.zeros(len(dirs), 3, dtype=dirs.dtype, device=dirs.device)
     normal = torch.zeros_like(colour)
     if mask.any():
-        x = dirs[mask] * dist[mask, None]
-        diff = x[:, None, :] - scene.centres[None]  # (R, B, 3)
-        d2 = diff.square().sum(-1)
-        f = scene.radii.square() / d2  # (R, B)
-        colour[mask] = (f @ scene.colours) / f.sum(1, keepdim=True)
-        grad = (-2 * scene.radii.square()[None, :, None] * diff / d2[..., None].square()).sum(1)
-        n = -grad / grad.norm(dim=1, keepdim=True)
+        colour[mask], n = surface_attributes(dirs[mask] * dist[mask, None], scene)
         normal[mask] = (n + 1) / 2
     depth = torch.where(
         mask, normalised_depth(dist.nan_to_num(posinf=MAX_DEPTH)), torch.ones_like(dist)

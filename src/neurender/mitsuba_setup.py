@@ -1,0 +1,61 @@
+"""Import Mitsuba 3 with a differentiable variant that runs on this machine.
+
+``device='auto'`` picks ``cuda_ad_rgb`` when Dr.Jit finds a CUDA driver, else
+``llvm_ad_rgb``. The LLVM variants need an LLVM >= 16 shared library: pip installs one
+with ``karellen-llvm-core`` (``<prefix>/lib/libLLVM.so.*``), which is pointed to through
+``DRJIT_LIBLLVM_PATH`` before Mitsuba loads unless the user already set it (a conda
+``libllvm`` or Debian's ``libllvm19`` work the same way).
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import sys
+from types import ModuleType
+
+INSTALL_HINT = "pip install mitsuba karellen-llvm-core (or conda install -c conda-forge libllvm19)"
+
+
+def bundled_llvm() -> str | None:
+    """Path of the LLVM shared library installed into this environment, if any."""
+    found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libLLVM.so*")))
+    found += sorted(glob.glob(os.path.join(sys.prefix, "lib", "libLLVM-*.so")))
+    return found[-1] if found else None
+
+
+def variant_for(device: str, has_cuda: bool) -> str:
+    """Mitsuba variant for a config ``device`` (``auto``, ``cpu``, ``cuda``, ``cuda:N``)."""
+    if device == "cpu":
+        return "llvm_ad_rgb"
+    if device.startswith("cuda"):
+        if not has_cuda:
+            raise RuntimeError(f"device {device!r} requested but Dr.Jit finds no CUDA driver")
+        return "cuda_ad_rgb"
+    if device != "auto":
+        raise ValueError(f"device {device!r}: expected auto, cpu, cuda or cuda:N")
+    return "cuda_ad_rgb" if has_cuda else "llvm_ad_rgb"
+
+
+def import_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
+    """Return ``(mitsuba, drjit)`` with a differentiable RGB variant set.
+
+    Raises:
+        RuntimeError: with the install command when Mitsuba or LLVM is missing.
+    """
+    if "DRJIT_LIBLLVM_PATH" not in os.environ and (llvm := bundled_llvm()):
+        os.environ["DRJIT_LIBLLVM_PATH"] = llvm
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError as err:
+        raise RuntimeError(f"Mitsuba 3 is not installed ({err}); run: {INSTALL_HINT}") from err
+    variant = variant_for(device, dr.has_backend(dr.JitBackend.CUDA))
+    if variant.startswith("llvm") and not dr.has_backend(dr.JitBackend.LLVM):
+        raise RuntimeError(
+            "Mitsuba's llvm_ad_rgb variant needs an LLVM >= 16 shared library and Dr.Jit "
+            f"found none (DRJIT_LIBLLVM_PATH={os.environ.get('DRJIT_LIBLLVM_PATH')!r}); "
+            f"run: {INSTALL_HINT}"
+        )
+    mi.set_variant(variant)
+    return mi, dr

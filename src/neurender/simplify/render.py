@@ -1,0 +1,147 @@
+"""Forward rendering with Mitsuba 3: triangle meshes under one point light, no ambient.
+
+Images are linear RGB radiance with a box pixel filter and a black background; with
+``alpha=True`` a fourth channel holds pixel coverage. Materials are Lambertian
+(``albedo / pi``), optionally with a tangent-space normal map in Mitsuba's convention:
+components along ``(s, t, n)`` with ``n`` the interpolated vertex normal,
+``s = normalize(dp/du - n (n . dp/du))`` and ``t = n x s``, stored as ``(m + 1) / 2``.
+Texture row ``r`` covers ``v`` in ``[r, r + 1] / H`` (row 0 is ``v = 0``).
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+from tqdm import tqdm
+
+from neurender.simplify.cameras import View
+
+
+def vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals ``(V, 3)`` of a triangle mesh."""
+    p = positions[faces]
+    face_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n = np.zeros_like(positions)
+    for k in range(3):
+        np.add.at(n, faces[:, k], face_n)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+
+
+def bitmap(mi: ModuleType, data: np.ndarray) -> dict:
+    """A raw (linear, unconverted) bilinear texture ``(H, W, 3)``."""
+    return {
+        "type": "bitmap",
+        "raw": True,
+        "data": mi.TensorXf(np.ascontiguousarray(data, dtype=np.float32)),
+        "wrap_mode": "clamp",
+    }
+
+
+def material(
+    mi: ModuleType, albedo: float | np.ndarray, normal_map: np.ndarray | None = None
+) -> dict:
+    """Lambertian BSDF dict: constant grey ``albedo`` or an ``(H, W, 3)`` texture, and an
+    optional ``(H, W, 3)`` tangent-space normal map (values in [0, 1])."""
+    reflectance = (
+        {"type": "rgb", "value": [float(albedo)] * 3} if np.isscalar(albedo) else bitmap(mi, albedo)
+    )
+    bsdf = {"type": "diffuse", "reflectance": reflectance}
+    if normal_map is None:
+        return bsdf
+    return {"type": "normalmap", "normalmap": bitmap(mi, normal_map), "bsdf": bsdf}
+
+
+def mesh_shape(
+    mi: ModuleType,
+    positions: np.ndarray,
+    faces: np.ndarray,
+    bsdf: dict,
+    uvs: np.ndarray | None = None,
+    name: str = "mesh",
+):
+    """A Mitsuba mesh from ``(V, 3)`` positions, ``(F, 3)`` faces and optional ``(V, 2)`` UVs;
+    vertex normals are the area-weighted ones of :func:`vertex_normals`."""
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(bsdf)
+    mesh = mi.Mesh(
+        name,
+        len(positions),
+        len(faces),
+        has_vertex_normals=True,
+        has_vertex_texcoords=uvs is not None,
+        props=props,
+    )
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = np.ravel(positions).astype(np.float32)
+    params["faces"] = np.ravel(faces).astype(np.uint32)
+    params["vertex_normals"] = np.ravel(vertex_normals(positions, faces)).astype(np.float32)
+    if uvs is not None:
+        params["vertex_texcoords"] = np.ravel(uvs).astype(np.float32)
+    params.update()
+    return mesh
+
+
+def look_at(mi: ModuleType, view: View):
+    return mi.ScalarTransform4f().look_at(origin=view.origin, target=view.target, up=[0, 1, 0])
+
+
+def scene_dict(
+    mi: ModuleType,
+    shape,
+    view: View,
+    width: int,
+    spp: int,
+    intensity: float,
+    integrator: dict | None = None,
+    alpha: bool = True,
+) -> dict:
+    """Scene of one shape, a perspective sensor and a point light of radiant ``intensity``."""
+    return {
+        "type": "scene",
+        "integrator": integrator or {"type": "direct"},
+        "sensor": {
+            "type": "perspective",
+            "fov": view.fov,
+            "to_world": look_at(mi, view),
+            "film": {
+                "type": "hdrfilm",
+                "width": width,
+                "height": width,
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgba" if alpha else "rgb",
+                # The projective integrator samples silhouettes just outside the film.
+                "sample_border": integrator is not None,
+            },
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        "light": {"type": "point", "position": list(view.light), "intensity": intensity},
+        "shape": shape,
+    }
+
+
+def set_view(mi: ModuleType, params, view: View) -> None:
+    """Move the sensor and the light of a loaded scene to ``view`` (no update call)."""
+    params["sensor.to_world"] = mi.Transform4f(look_at(mi, view).matrix)
+    params["light.position"] = mi.Point3f(*view.light)
+
+
+def render_views(
+    mi: ModuleType,
+    shape,
+    views: list[View],
+    width: int,
+    spp: int,
+    intensity: float,
+    seed: int,
+    desc: str = "render",
+) -> np.ndarray:
+    """Render ``shape`` from every view: ``(N, W, W, 4)`` float32 RGBA (alpha = coverage)."""
+    scene = mi.load_dict(scene_dict(mi, shape, views[0], width, spp, intensity))
+    params = mi.traverse(scene)
+    images = []
+    for i, view in enumerate(tqdm(views, desc=desc, mininterval=5)):
+        set_view(mi, params, view)
+        params.update()
+        images.append(np.array(mi.render(scene, seed=seed + i), dtype=np.float32))
+    return np.stack(images)

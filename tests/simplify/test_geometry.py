@@ -1,0 +1,81 @@
+import math
+
+import numpy as np
+import pytest
+import torch
+import trimesh
+
+from neurender.metaballs.raymarch import field
+from neurender.metaballs.scenes import Scene
+from neurender.mitsuba_setup import variant_for
+from neurender.simplify import assets, bake, cameras, mesh_ops, render
+
+
+def test_variant_for_devices():
+    assert variant_for("auto", has_cuda=False) == "llvm_ad_rgb"
+    assert variant_for("auto", has_cuda=True) == "cuda_ad_rgb"
+    assert variant_for("cpu", has_cuda=True) == "llvm_ad_rgb"
+    with pytest.raises(RuntimeError, match="cuda"):
+        variant_for("cuda:0", has_cuda=False)
+    with pytest.raises(ValueError, match="tpu"):
+        variant_for("tpu", has_cuda=False)
+
+
+def test_pixel_rays_centre_and_orientation():
+    view = cameras.View((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 0.0, 5.0), 60.0, 0.0, 0.0)
+    d = cameras.pixel_rays(view, 4)
+    assert np.allclose(np.linalg.norm(d, axis=-1), 1)
+    # Looking down -z from +z with y up: image left is world -x, image top is +y.
+    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0 and d[-1, -1, 0] > 0 and d[-1, -1, 1] < 0
+    half = math.tan(math.radians(30)) * (1 - 1 / 4)
+    assert np.isclose(d[0, 0, 0] / -d[0, 0, 2], -half)
+
+
+def test_views_round_trip_through_csv_frame():
+    views = cameras.sample_views(5, 3, "test", 7.0, 30.0, (-80, 80), (-30, 30), 6.0, 40.0)
+    back = cameras.views_from_frame(cameras.views_frame(views))
+    assert back == views
+    for v in views:  # the light lies within the cone around the camera direction
+        cos = np.dot(v.origin, v.light) / (np.linalg.norm(v.origin) * np.linalg.norm(v.light))
+        assert cos >= math.cos(math.radians(40)) - 1e-9
+        assert -80 <= v.azimuth <= 80
+
+
+def test_decimate_keeps_shape_and_budget():
+    head = assets.detailed_head(3000, 0)
+    v, f = mesh_ops.decimate(head.vertices, head.faces, 300)
+    assert 280 <= len(f) <= 300
+    low = trimesh.Trimesh(v, f, process=False)
+    assert abs(low.area - head.area) / head.area < 0.05
+    with pytest.raises(ValueError, match="not below"):
+        mesh_ops.decimate(v, f, len(f) + 1)
+
+
+def test_implicit_mesh_of_one_ball_is_its_sphere():
+    ball = Scene(
+        torch.zeros(1, 3, dtype=torch.float64),
+        torch.tensor([1.0], dtype=torch.float64),
+        torch.ones(1, 3, dtype=torch.float64),
+    )
+    v, f = mesh_ops.implicit_mesh(
+        lambda p: field(torch.from_numpy(p), ball)[0].numpy(),
+        (np.full(3, -1.5), np.full(3, 1.5)),
+        40,
+        1.0,
+    )
+    r = np.linalg.norm(v, axis=1)
+    assert np.abs(r - 1).max() < 3.0 / 39  # within one grid cell
+    n = render.vertex_normals(v, f)
+    assert ((n * v).sum(1) / r > 0.95).all()  # outward
+
+
+def test_rasterised_texels_lie_in_their_triangles():
+    head = assets.detailed_head(2000, 1)
+    v, f = mesh_ops.decimate(head.vertices, head.faces, 200)
+    low = mesh_ops.uv_atlas(v, f, 64)
+    s = bake.rasterise_uvs(low.uvs, low.uv_faces, 64)
+    assert np.allclose(s.bary.sum(1), 1) and (s.bary >= -1e-9).all()
+    centre = np.einsum("kj,kjc->kc", s.bary, low.uvs[low.uv_faces[s.face]])
+    assert np.allclose(centre * 64 - 0.5, np.column_stack([s.cols, s.rows]), atol=1e-6)
+    # Charts do not overlap: each texel belongs to one triangle.
+    assert len(np.unique(s.rows * 64 + s.cols)) >= 0.97 * len(s.rows)

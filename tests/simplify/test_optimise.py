@@ -1,0 +1,90 @@
+import numpy as np
+import trimesh
+
+from neurender.simplify import bake, cameras, mesh_ops, optimise, render
+
+
+def test_tonemap_is_srgb_of_log1p(mitsuba):
+    mi, dr = mitsuba
+    x = np.array([0.0, 1e-3, 0.5, 3.0, 100.0])
+    y = np.log1p(x)
+    expected = np.where(y <= 0.0031308, 12.92 * y, 1.055 * y ** (1 / 2.4) - 0.055)
+    assert np.allclose(np.array(optimise.tonemap(dr, mi.Float(x))), expected, rtol=1e-5)
+
+
+def test_laplacian_decay_keeps_the_papers_schedule_shape():
+    # prod_t 10^(-k t) over the first fraction f of the run depends on k (f steps)^2 / 2.
+    for steps in (100, 1000):
+        k = optimise.laplacian_decay(steps)
+        assert np.isclose(k * (0.2 * steps) ** 2, optimise.PAPER_DECAY_K * 2000**2)
+
+
+def test_latent_mesh_normals_and_laplacian(mitsuba):
+    mi, dr = mitsuba
+    sphere = trimesh.creation.icosphere(3)
+    low = mesh_ops.LowPolyMesh(
+        sphere.vertices,
+        sphere.faces,
+        np.arange(len(sphere.vertices)),
+        np.zeros((len(sphere.vertices), 2)),
+        sphere.faces,
+    )
+    latent = optimise.LatentMesh(mi, dr, low)
+    p = latent.points(mi.Float(np.ravel(sphere.vertices)))
+    n = np.array(latent.normals(p))
+    radial = sphere.vertices / np.linalg.norm(sphere.vertices, axis=1, keepdims=True)
+    assert (np.einsum("ij,ij->i", n.T if n.shape[0] == 3 else n, radial) > 0.99).all()
+    # The uniform Laplacian of a vertex on a sphere points inwards (towards its ring's centre).
+    delta = np.array(latent.laplacian(p))
+    delta = delta.T if delta.shape[0] == 3 else delta
+    assert (np.einsum("ij,ij->i", delta, radial) > 0).all()
+    pairs, valence = optimise.neighbour_pairs(sphere.faces, len(sphere.vertices))
+    assert valence.sum() == len(pairs) == 2 * len(sphere.edges_unique)
+
+
+def test_optimisation_recovers_a_normal_map(mitsuba):
+    """References rendered with a constant tilted normal map; starting from a flat map the
+    optimised map must move most of the way to the truth (texels the cameras see)."""
+    mi, dr = mitsuba
+    box = trimesh.creation.box([2.0, 2.0, 0.01])
+    top = box.faces[(box.vertices[:, 2] > 0)[box.faces].all(1)]
+    grid = trimesh.Trimesh(box.vertices, top).subdivide()
+    grid.remove_unreferenced_vertices()
+    low = mesh_ops.uv_atlas(np.asarray(grid.vertices), np.asarray(grid.faces), 16)
+    truth_world = np.array([0.4, 0.2, 0.89]) / np.linalg.norm([0.4, 0.2, 0.89])
+    truth, _ = bake.bake(
+        low,
+        grid.vertices - [0, 0, 0.01],
+        grid.faces,
+        16,
+        normal_fn=lambda p, f, b: np.tile(truth_world, (len(p), 1)),
+    )
+    views = cameras.sample_views(6, 0, "train", 4.0, 40.0, (-30, 30), (-30, 30), 3.0, 60.0)
+    shape = render.mesh_shape(
+        mi, low.atlas_positions(), low.uv_faces, render.material(mi, 0.8, truth), low.uvs
+    )
+    references = render.render_views(mi, shape, views, 24, 64, 20.0, seed=0)
+    flat = np.broadcast_to([0.5, 0.5, 1.0], truth.shape).copy()
+    cfg = optimise.OptimiseConfig(
+        steps=60,
+        spp=4,
+        width=24,
+        lr_positions=0.0,
+        lr_textures=0.05,
+        lr_final_fraction=0.2,
+        intensity=20.0,
+        seed=0,
+        optimise_positions=False,
+    )
+    positions, normal_map, albedo, loss = optimise.optimise(
+        mi, dr, low, flat, 0.8, references, views, cfg
+    )
+    assert albedo is None and np.allclose(positions, low.positions)
+    covered = np.zeros(truth.shape[:2], bool)
+    s = bake.rasterise_uvs(low.uvs, low.uv_faces, 16)
+    covered[s.rows, s.cols] = True
+    before = np.abs(flat - truth)[covered].mean()
+    after = np.abs(normal_map - truth)[covered].mean()
+    assert after < 0.5 * before
+    image_loss = loss[loss["metric"] == "image_l1"]["value"].to_numpy()
+    assert image_loss[-10:].mean() < 0.5 * image_loss[:10].mean()

@@ -1,0 +1,73 @@
+# Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3.
+
+
+rule simplify_prepare:
+    output:
+        train_images="results/simplification/{case}/reference_train.exr",
+        test_images="results/simplification/{case}/reference_test.exr",
+        train_views="results/simplification/{case}/views_train.csv",
+        test_views="results/simplification/{case}/views_test.csv",
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        baked_normal="results/simplification/{case}/baked_normal.png",
+        baked_albedo="results/simplification/{case}/baked_albedo.png",
+        stats="results/simplification/{case}/stats.csv",
+    params:
+        cfg=simplify_params(),
+    log:
+        "results/logs/simplify_prepare/{case}.log",
+    benchmark:
+        "results/benchmarks/simplify_prepare/{case}.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/simplify_prepare.py"
+
+
+rule simplify_optimise:
+    input:
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        train_images="results/simplification/{case}/reference_train.exr",
+        train_views="results/simplification/{case}/views_train.csv",
+    output:
+        mesh="results/simplification/{case}/optimised.npz",
+        obj="results/simplification/{case}/optimised.obj",
+        normal="results/simplification/{case}/optimised_normal.png",
+        albedo="results/simplification/{case}/optimised_albedo.png",
+        loss="results/simplification/{case}/loss.csv",
+    params:
+        cfg=simplify_params(),
+    log:
+        "results/logs/simplify_optimise/{case}.log",
+    benchmark:
+        "results/benchmarks/simplify_optimise/{case}.tsv"
+    threads: workflow.cores
+    resources:
+        gpu=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/simplify_optimise.py"
+
+
+rule simplify_evaluate:
+    input:
+        unpack(simplify_evaluate_inputs),
+    output:
+        metrics="results/simplification/metrics.csv",
+        targets="results/simplification/targets.csv",
+        stats="results/simplification/stats.csv",
+        figure=report("results/simplification/figures/comparison.png", category="Simplification"),
+        loss_figure=report("results/simplification/figures/loss_curves.png", category="Simplification"),
+    params:
+        cfg=simplify_params(),
+        cases=config["simplify"]["cases"],
+    log:
+        "results/logs/simplify_evaluate/simplify_evaluate.log",
+    benchmark:
+        "results/benchmarks/simplify_evaluate/simplify_evaluate.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/simplify_evaluate.py"
