@@ -20,6 +20,7 @@ from neurender.prt.objects import head_mesh
 from neurender.rng import stable_seed
 
 ASSETS = ("head", "metaballs")
+CREATURE_RADIUS = 1.7
 
 
 def skin_detail(x: np.ndarray, y: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -52,12 +53,17 @@ def detailed_head(n_vertices: int, seed: int) -> trimesh.Trimesh:
 
 
 def metaball_creature(count: int, seed: int) -> Scene:
-    """``count`` coloured balls around the origin (a body with limbs), float64."""
+    """``count`` coloured balls around the origin (a body with limbs) within a radius of
+    about :data:`CREATURE_RADIUS`, float64."""
     g = torch.Generator().manual_seed(stable_seed(seed, "simplify", "metaballs")[0])
     u = torch.rand(count, 7, generator=g, dtype=torch.float64)
     # Balls on a random walk from the origin, so the surface is one connected blob.
     steps = (u[:, :3] * 2 - 1) * 0.55
     centres = torch.cumsum(steps, 0)
     centres = centres - centres.mean(0)
-    radii = 0.35 + 0.3 * u[:, 3]
-    return Scene(centres, radii, u[:, 4:7] * 0.8 + 0.1)
+    radii = 0.22 + 0.2 * u[:, 3]
+    # F = sum r^2 / d^2 is scale invariant: scale the creature to a fixed size, so one
+    # camera distance frames both use cases (a ball's surface reaches ~1.3 r beyond its
+    # centre where neighbours add to the field).
+    scale = CREATURE_RADIUS / float((centres.norm(dim=1) + 1.3 * radii).max())
+    return Scene(centres * scale, radii * scale, u[:, 4:7] * 0.8 + 0.1)

@@ -143,6 +143,18 @@ def target_rows(frame: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def object_crop(alpha: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
+    """Rows and columns around the covered pixels of ``alpha (H, W)`` (all if none)."""
+    rows, cols = np.nonzero(alpha > 0.5)
+    if len(rows) == 0:
+        return slice(None), slice(None)
+    h, w = alpha.shape
+    return (
+        slice(max(rows.min() - margin, 0), min(rows.max() + margin + 1, h)),
+        slice(max(cols.min() - margin, 0), min(cols.max() + margin + 1, w)),
+    )
+
+
 def _comparison_figure(crops: dict, path: str) -> None:
     """Per case: reference, each variant, its difference image (red = too bright, blue =
     too dim) and its coverage difference (red = extra, blue = missing)."""
@@ -150,7 +162,9 @@ def _comparison_figure(crops: dict, path: str) -> None:
     fig, axes = plt.subplots(
         len(crops), cols, figsize=(1.6 * cols, 1.8 * len(crops)), squeeze=False
     )
-    for row, (case, (ref, images)) in enumerate(crops.items()):
+    for row, (case, (full_ref, full_images)) in enumerate(crops.items()):
+        crop = object_crop(full_ref[..., 3])
+        ref, images = full_ref[crop], {k: v[crop] for k, v in full_images.items()}
         axes[row, 0].imshow(srgb(ref[..., :3]))
         axes[row, 0].set_title(f"{case}: reference", fontsize=7)
         for k, variant in enumerate(VARIANTS):

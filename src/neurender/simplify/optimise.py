@@ -33,8 +33,9 @@ MIN_NORMAL_Z = 0.1
 
 @dataclasses.dataclass(frozen=True)
 class OptimiseConfig:
-    """Steps, samples per pixel, learning rates (positions in scene units per step) that
-    decay exponentially to ``lr_final_fraction`` of their start, and what is optimised."""
+    """Steps of ``batch`` views, samples per pixel, learning rates (positions in scene units
+    per step) that decay exponentially to ``lr_final_fraction`` of their start, the eq. 6
+    Laplacian weights, and what is optimised."""
 
     steps: int
     spp: int
@@ -44,6 +45,7 @@ class OptimiseConfig:
     lr_final_fraction: float
     intensity: float
     seed: int
+    batch: int = 1  # views per step (paper 8)
     optimise_positions: bool = True
     optimise_albedo: bool = False
     laplacian_scale: float = 0.25  # lambda_0 = scale * L_image / L_delta (paper 5.3)
@@ -80,10 +82,14 @@ class LatentMesh:
 
     def __init__(self, mi: ModuleType, dr: ModuleType, low: LowPolyMesh):
         self.mi, self.dr, self.n = mi, dr, len(low.positions)
-        self.corners = [mi.UInt32(low.faces[:, k]) for k in range(3)]
-        self.vmap = mi.UInt32(low.vmap)
+        self.corners = [
+            mi.UInt32(np.ascontiguousarray(low.faces[:, k], np.uint32)) for k in range(3)
+        ]
+        self.vmap = mi.UInt32(np.ascontiguousarray(low.vmap, np.uint32))
         pairs, valence = neighbour_pairs(low.faces, self.n)
-        self.pair_i, self.pair_j = mi.UInt32(pairs[:, 0]), mi.UInt32(pairs[:, 1])
+        self.pair_i, self.pair_j = (
+            mi.UInt32(np.ascontiguousarray(pairs[:, k], np.uint32)) for k in range(2)
+        )
         self.inv_valence = mi.Float(1.0 / np.maximum(valence, 1))
 
     def scatter_sum(self, values, index, kind):
@@ -162,7 +168,8 @@ def optimise(
     )
     delta0 = dr.detach(latent.laplacian(latent.points(mi.Float(np.ravel(low.positions)))))
     targets = [mi.TensorXf(np.ascontiguousarray(r[..., :3])) for r in references]
-    order = np.random.default_rng(cfg.seed).permutation(np.resize(np.arange(len(views)), cfg.steps))
+    draws = cfg.steps * cfg.batch
+    order = np.random.default_rng(cfg.seed).permutation(np.resize(np.arange(len(views)), draws))
     # Tangent-space normals stay in the upper hemisphere (z >= MIN_NORMAL_Z), as in nvdiffrec.
     normal_lo = mi.TensorXf(
         np.broadcast_to([0.0, 0.0, (1 + MIN_NORMAL_Z) / 2], normal_map.shape)
@@ -177,41 +184,52 @@ def optimise(
         lr_scale = cfg.lr_final_fraction ** (step / max(cfg.steps - 1, 1))
         tex_opt.set_learning_rate(cfg.lr_textures * lr_scale)
         pos_opt.set_learning_rate(cfg.lr_positions * lr_scale if cfg.optimise_positions else 0.0)
-        params.update(tex_opt)
-        p = latent.points(pos_opt["positions"])
-        latent.write(params, p)
-        set_view(mi, params, views[order[step]])
-        params.update()
-        image = mi.render(scene, params, seed=cfg.seed + step, spp=cfg.spp)
-        loss_image = dr.mean(
-            dr.abs(tonemap(dr, image) - tonemap(dr, targets[order[step]])), axis=None
-        )
-        delta = latent.laplacian(p) - delta0
-        loss_lap = dr.mean(dr.squared_norm(delta), axis=None)
-        if lam is None:
-            # delta - delta0 is 0 at the start, so the weight is set against the absolute
-            # Laplacian of the initial mesh (paper: lambda_0 = 0.25 L_image / L_delta).
-            absolute = scalar(dr.mean(dr.squared_norm(delta0), axis=None))
-            lam = cfg.laplacian_scale * scalar(loss_image) / max(absolute, 1e-12)
-            lam_min = cfg.laplacian_min_fraction * lam
-        lam = (lam - lam_min) * 10 ** (-decay * step) + lam_min
-        dr.backward(loss_image + lam * loss_lap)
+        image_losses = []
+        for item in range(cfg.batch):
+            draw = step * cfg.batch + item
+            # Mitsuba differentiates a render against the scene as it is at backward time,
+            # so each view of a batch is rendered and back-propagated on its own; the
+            # gradients add up in the optimisers' variables.
+            params.update(tex_opt)
+            p = latent.points(pos_opt["positions"])
+            latent.write(params, p)
+            set_view(mi, params, views[order[draw]])
+            params.update()
+            image = mi.render(scene, params, seed=cfg.seed + draw, spp=cfg.spp)
+            loss_image = dr.mean(
+                dr.abs(tonemap(dr, image) - tonemap(dr, targets[order[draw]])), axis=None
+            )
+            image_losses.append(scalar(loss_image))
+            loss = loss_image / cfg.batch
+            if item == 0:
+                loss_lap = dr.mean(dr.squared_norm(latent.laplacian(p) - delta0), axis=None)
+                if lam is None:
+                    # delta - delta0 is 0 at the start, so the weight is set against the
+                    # absolute Laplacian of the initial mesh (lambda_0 = 0.25 L_image / L_delta).
+                    absolute = scalar(dr.mean(dr.squared_norm(delta0), axis=None))
+                    lam = cfg.laplacian_scale * image_losses[0] / max(absolute, 1e-12)
+                    lam_min = cfg.laplacian_min_fraction * lam
+                lam = (lam - lam_min) * 10 ** (-decay * step) + lam_min
+                laplacian_value = scalar(loss_lap)
+                loss = loss + lam * loss_lap
+            dr.backward(loss)
         tex_opt.step()
         if cfg.optimise_positions:
             pos_opt.step()
         tex_opt[NORMAL_KEY] = dr.clip(tex_opt[NORMAL_KEY], normal_lo, 1.0)
         if cfg.optimise_albedo:
             tex_opt[ALBEDO_KEY] = dr.clip(tex_opt[ALBEDO_KEY], 0.0, 1.0)
+        image_l1 = float(np.mean(image_losses))
+        if not math.isfinite(image_l1):
+            raise FloatingPointError(f"image loss is not finite at step {step}")
         elapsed = time.perf_counter() - started
         for metric, value in (
-            ("image_l1", scalar(loss_image)),
-            ("laplacian", scalar(loss_lap)),
+            ("image_l1", image_l1),
+            ("laplacian", laplacian_value),
             ("lambda", lam),
             ("seconds", elapsed),
         ):
             rows.append({"step": step, "metric": metric, "value": value})
-        if not math.isfinite(rows[-4]["value"]):
-            raise FloatingPointError(f"image loss is not finite at step {step}")
     positions = np.array(pos_opt["positions"]).reshape(-1, 3).astype(np.float64)
     normal_out = np.array(tex_opt[NORMAL_KEY])
     albedo_out = np.array(tex_opt[ALBEDO_KEY]) if cfg.optimise_albedo else None

@@ -172,6 +172,7 @@ def optimise_case(case: str, cfg: dict, mi, dr, inputs: dict, out: dict) -> None
     albedo = HEAD_ALBEDO if case == "head" else np.full((size, size, 3), 0.5)
     settings = OptimiseConfig(
         steps=cfg["steps"],
+        batch=cfg["batch"],
         spp=cfg["spp"],
         width=cfg["resolution"],
         lr_positions=cfg["lr_positions"],
@@ -180,6 +181,8 @@ def optimise_case(case: str, cfg: dict, mi, dr, inputs: dict, out: dict) -> None
         intensity=cfg["intensity"],
         seed=cfg["seed"],
         optimise_albedo=case != "head",
+        laplacian_scale=cfg["laplacian_scale"],
+        laplacian_min_fraction=cfg["laplacian_min_fraction"],
     )
     positions, normal_map, albedo_map, loss = optimise(
         mi, dr, low, flat, albedo, references, views, settings
