@@ -59,3 +59,12 @@ def import_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
         )
     mi.set_variant(variant)
     return mi, dr
+
+
+def require_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
+    """:func:`import_mitsuba` for job scripts: a missing install ends the job with the
+    one-line message saying what to install instead of a stack trace."""
+    try:
+        return import_mitsuba(device)
+    except RuntimeError as err:
+        raise SystemExit(f"error: {err}") from None

@@ -1,4 +1,7 @@
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -79,3 +82,11 @@ def test_rasterised_texels_lie_in_their_triangles():
     assert np.allclose(centre * 64 - 0.5, np.column_stack([s.cols, s.rows]), atol=1e-6)
     # Charts do not overlap: each texel belongs to one triangle.
     assert len(np.unique(s.rows * 64 + s.cols)) >= 0.97 * len(s.rows)
+
+
+def test_missing_llvm_is_a_one_line_error_naming_the_install(tmp_path):
+    code = "from neurender.mitsuba_setup import require_mitsuba; require_mitsuba('cpu')"
+    env = {**os.environ, "DRJIT_LIBLLVM_PATH": str(tmp_path / "missing.so")}
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.returncode == 1
+    assert "karellen-llvm-core" in run.stderr and "Traceback" not in run.stderr

@@ -140,8 +140,14 @@ def metaballs_figures():
 SIMPLIFY_CASES = tuple(config["simplify"]["cases"])
 
 
-def simplify_params():
-    return {"seed": config["seed"], "device": config["device"], **config["simplify"]}
+def simplify_params(wildcards):
+    """The simplify subtree; a use case's jobs skip the other case's keys, so tuning one
+    case never reruns the other."""
+    cfg = {"seed": config["seed"], "device": config["device"], **config["simplify"]}
+    other = {"head": "metaball_", "metaballs": "head_"}.get(wildcards.get("case"))
+    if other is None:
+        return cfg
+    return {k: v for k, v in cfg.items() if k != "cases" and not k.startswith(other)}
 
 
 SIMPLIFY_CASE_FILES = {

@@ -12,7 +12,7 @@ rule simplify_prepare:
         baked_albedo="results/simplification/{case}/baked_albedo.png",
         stats="results/simplification/{case}/stats.csv",
     params:
-        cfg=simplify_params(),
+        cfg=simplify_params,
     log:
         "results/logs/simplify_prepare/{case}.log",
     benchmark:
@@ -36,7 +36,7 @@ rule simplify_optimise:
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
     params:
-        cfg=simplify_params(),
+        cfg=simplify_params,
     log:
         "results/logs/simplify_optimise/{case}.log",
     benchmark:
@@ -60,7 +60,7 @@ rule simplify_evaluate:
         figure=report("results/simplification/figures/comparison.png", category="Simplification"),
         loss_figure=report("results/simplification/figures/loss_curves.png", category="Simplification"),
     params:
-        cfg=simplify_params(),
+        cfg=simplify_params,
         cases=config["simplify"]["cases"],
     log:
         "results/logs/simplify_evaluate/simplify_evaluate.log",

@@ -2,12 +2,12 @@ from pandas import concat
 
 from neurender.io import read_csv, write_csv
 from neurender.logs import log_to_file
-from neurender.mitsuba_setup import import_mitsuba
+from neurender.mitsuba_setup import require_mitsuba
 from neurender.simplify.evaluate import evaluate_cases, loss_figure
 
 log_to_file(snakemake.log[0])
 cfg = snakemake.params.cfg
-mi, _ = import_mitsuba(cfg["device"])
+mi, _ = require_mitsuba(cfg["device"])
 inputs = dict(snakemake.input.items())
 evaluate_cases(mi, snakemake.params.cases, cfg, inputs, dict(snakemake.output.items()))
 cases = snakemake.params.cases

@@ -1,10 +1,10 @@
 from neurender.logs import log_to_file
-from neurender.mitsuba_setup import import_mitsuba
+from neurender.mitsuba_setup import require_mitsuba
 from neurender.simplify.stage import optimise_case
 
 log_to_file(snakemake.log[0])
 cfg = snakemake.params.cfg
-mi, dr = import_mitsuba(cfg["device"])
+mi, dr = require_mitsuba(cfg["device"])
 optimise_case(
     snakemake.wildcards.case,
     cfg,

@@ -3,7 +3,7 @@
 Every variant is rendered by Mitsuba from the test views (never optimised against) and
 compared with the reference renderer's test images after display encoding
 (``sRGB(clip(x, 0, 1))``): PSNR (dB), SSIM and FLIP (NVIDIA's ``flip-evaluator``, LDR mode,
-lower is better); plus the silhouette coverage error: pixels covered (alpha > 0.5) by one
+lower is better); plus the silhouette coverage error: pixels covered (alpha >= 0.5) by one
 image and not the other, as a fraction of the reference's covered pixels (Fig. 5, top).
 """
 
@@ -30,8 +30,9 @@ def srgb(x: np.ndarray) -> np.ndarray:
 
 def coverage_error(alpha: np.ndarray, reference_alpha: np.ndarray) -> tuple[float, float]:
     """Fractions of the reference's covered pixels that are covered only by the candidate
-    (too much) and only by the reference (missing); ``(H, W)`` coverage images."""
-    a, r = alpha > 0.5, reference_alpha > 0.5
+    (too much) and only by the reference (missing); ``(H, W)`` coverage images, a pixel
+    counting as covered from half coverage on."""
+    a, r = alpha >= 0.5, reference_alpha >= 0.5
     n = max(int(r.sum()), 1)
     return float((a & ~r).sum() / n), float((r & ~a).sum() / n)
 
@@ -171,7 +172,7 @@ def _comparison_figure(crops: dict, path: str) -> None:
             img = images[variant]
             diff = (srgb(img[..., :3]) - srgb(ref[..., :3])).mean(-1)
             signed = np.stack([diff.clip(0), np.zeros_like(diff), (-diff).clip(0)], -1) * 4
-            a, r = img[..., 3] > 0.5, ref[..., 3] > 0.5
+            a, r = img[..., 3] >= 0.5, ref[..., 3] >= 0.5
             cover = np.stack([a & ~r, np.zeros_like(a), r & ~a], -1).astype(float)
             cover += 0.25 * (a & r)[..., None]
             for j, (pic, title) in enumerate(
