@@ -55,6 +55,7 @@ rule simplify_evaluate:
         unpack(simplify_evaluate_inputs),
     output:
         metrics="results/simplification/metrics.csv",
+        metrics_views="results/simplification/metrics_views.csv",
         targets="results/simplification/targets.csv",
         stats="results/simplification/stats.csv",
         figure=report("results/simplification/figures/comparison.png", category="Simplification"),

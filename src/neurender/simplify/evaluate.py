@@ -107,7 +107,9 @@ def evaluate_cases(mi, cases: list[str], cfg: dict, inputs: dict, out: dict) -> 
         pick = int(np.argmax([abs(v.azimuth) if case == "head" else 0 for v in views]))
         crops[case] = (references[pick], {v: renders[v][pick] for v in VARIANTS})
     frame = pd.DataFrame(rows)
-    io.write_csv(out["metrics"], frame)
+    io.write_csv(out["metrics_views"], frame)
+    keys = ["method", "dataset", "model", "split", "metric"]
+    io.write_csv(out["metrics"], frame.groupby(keys, sort=False)["value"].mean().reset_index())
     _comparison_figure(crops, out["figure"])
     io.write_csv(out["targets"], target_rows(frame))
 
