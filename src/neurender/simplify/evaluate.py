@@ -126,19 +126,19 @@ def target_rows(frame: pd.DataFrame) -> pd.DataFrame:
         rows += [
             {
                 "case": case,
-                "target": "PSNR gain over QEM >= 3 dB",
+                "target": "PSNR gain over QEM >= 3 dB (measured: dB)",
                 "measured": gain,
                 "met": gain >= 3.0,
             },
             {
                 "case": case,
-                "target": "PSNR above the classic baked normal map",
+                "target": "PSNR above the classic baked normal map (measured: ours - baked, dB)",
                 "measured": over_baked,
                 "met": over_baked > 0,
             },
             {
                 "case": case,
-                "target": "coverage error below QEM's",
+                "target": "coverage error below QEM's (measured: ours - QEM)",
                 "measured": cov[0] - cov[1],
                 "met": cov[0] < cov[1],
             },
@@ -159,41 +159,41 @@ def object_crop(alpha: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
 
 
 def _comparison_figure(crops: dict, path: str) -> None:
-    """Per case: reference, each variant, its difference image (red = too bright, blue =
-    too dim) and its coverage difference (red = extra, blue = missing)."""
-    cols = 1 + 3 * len(VARIANTS)
+    """One column triple per case (render, difference x4 with red = too bright and blue =
+    too dim, coverage with red = extra and blue = missing), one row per variant under the
+    reference row."""
     fig, axes = plt.subplots(
-        len(crops), cols, figsize=(1.6 * cols, 1.8 * len(crops)), squeeze=False
+        1 + len(VARIANTS),
+        3 * len(crops),
+        figsize=(2.2 * 3 * len(crops), 2.3 * (1 + len(VARIANTS))),
+        squeeze=False,
     )
-    for row, (case, (full_ref, full_images)) in enumerate(crops.items()):
+    for c, (case, (full_ref, full_images)) in enumerate(crops.items()):
         crop = object_crop(full_ref[..., 3])
-        ref, images = full_ref[crop], {k: v[crop] for k, v in full_images.items()}
-        axes[row, 0].imshow(srgb(ref[..., :3]))
-        axes[row, 0].set_title(f"{case}: reference", fontsize=7)
-        for k, variant in enumerate(VARIANTS):
-            img = images[variant]
+        ref = full_ref[crop]
+        axes[0, 3 * c].imshow(srgb(ref[..., :3]))
+        axes[0, 3 * c].set_title(f"{case}: reference", fontsize=9)
+        for k, variant in enumerate(VARIANTS, start=1):
+            img = full_images[variant][crop]
             diff = (srgb(img[..., :3]) - srgb(ref[..., :3])).mean(-1)
             signed = np.stack([diff.clip(0), np.zeros_like(diff), (-diff).clip(0)], -1) * 4
             a, r = img[..., 3] >= 0.5, ref[..., 3] >= 0.5
             cover = np.stack([a & ~r, np.zeros_like(a), r & ~a], -1).astype(float)
             cover += 0.25 * (a & r)[..., None]
-            for j, (pic, title) in enumerate(
-                (
-                    (srgb(img[..., :3]), variant),
-                    (signed.clip(0, 1), "difference x4"),
-                    (cover, "coverage"),
-                )
-            ):
-                axes[row, 1 + 3 * k + j].imshow(pic)
-                axes[row, 1 + 3 * k + j].set_title(f"{title}" if j else variant, fontsize=7)
+            panels = (srgb(img[..., :3]), signed.clip(0, 1), cover)
+            titles = (f"{case}: {variant}", "difference x4", "coverage")
+            for j, (pic, title) in enumerate(zip(panels, titles, strict=True)):
+                axes[k, 3 * c + j].imshow(pic)
+                axes[k, 3 * c + j].set_title(title, fontsize=9)
     for ax in axes.ravel():
         ax.axis("off")
-    save_figure(fig, path, dpi=110)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
 
 
 def loss_figure(losses: list[pd.DataFrame], path: str) -> None:
     """Image loss (eq. 4, 25-step running mean) per case over the optimisation."""
-    fig, ax = plt.subplots(figsize=(5, 3))
+    fig, ax = plt.subplots(figsize=(5, 3.2), layout="constrained")
     for loss in losses:
         rows = loss[loss["metric"] == "image_l1"]
         ax.plot(
