@@ -43,23 +43,11 @@ def test_latent_mesh_normals_and_laplacian(mitsuba):
     assert valence.sum() == len(pairs) == 2 * len(sphere.edges_unique)
 
 
-def test_optimisation_recovers_a_normal_map(mitsuba):
+def test_optimisation_recovers_a_normal_map(mitsuba, baked_plane):
     """References rendered with a constant tilted normal map; starting from a flat map the
     optimised map must move most of the way to the truth (texels the cameras see)."""
     mi, dr = mitsuba
-    box = trimesh.creation.box([2.0, 2.0, 0.01])
-    top = box.faces[(box.vertices[:, 2] > 0)[box.faces].all(1)]
-    grid = trimesh.Trimesh(box.vertices, top).subdivide()
-    grid.remove_unreferenced_vertices()
-    low = mesh_ops.uv_atlas(np.asarray(grid.vertices), np.asarray(grid.faces), 16)
-    truth_world = np.array([0.4, 0.2, 0.89]) / np.linalg.norm([0.4, 0.2, 0.89])
-    truth, _ = bake.bake(
-        low,
-        grid.vertices - [0, 0, 0.01],
-        grid.faces,
-        16,
-        normal_fn=lambda p, f, b: np.tile(truth_world, (len(p), 1)),
-    )
+    low, truth = baked_plane(16, [0.4, 0.2, 0.89], subdivisions=1)
     views = cameras.sample_views(6, 0, "train", 4.0, 40.0, (-30, 30), (-30, 30), 3.0, 60.0)
     shape = render.mesh_shape(
         mi, low.atlas_positions(), low.uv_faces, render.material(mi, 0.8, truth), low.uvs
