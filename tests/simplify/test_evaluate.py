@@ -41,6 +41,13 @@ def test_targets_compare_ours_with_both_baselines():
             {"dataset": "head", "model": model, "metric": "psnr", "value": psnr},
             {"dataset": "head", "model": model, "metric": "coverage_error", "value": cov},
         ]
-    targets = evaluate.target_rows(pd.DataFrame(rows)).set_index("target")
+    stats = pd.DataFrame([{"case": "head", "quantity": "prepare_seconds", "value": 60.0}])
+    loss = pd.DataFrame(
+        {"case": "head", "step": [0, 1], "metric": "seconds", "value": [30.0, 30.0]}
+    )
+    stats = evaluate.with_timings(stats, [loss], 30.0).set_index("quantity")["value"]
+    assert stats["optimise_seconds"] == 60 and stats["stage_seconds"] == 150
+    targets = evaluate.target_rows(pd.DataFrame(rows), stats.reset_index()).set_index("target")
     assert targets.loc["PSNR gain over QEM >= 3 dB (measured: dB)", "measured"] == 3.5
+    assert targets.loc["stage within 12 minutes (measured: minutes)", "measured"] == 2.5
     assert targets["met"].all()

@@ -11,6 +11,7 @@ map) and ``ours`` (vertices and textures optimised through Mitsuba).
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -90,6 +91,7 @@ def from_png16(image: np.ndarray) -> np.ndarray:
 
 def prepare_case(case: str, cfg: dict, mi, out: dict[str, str]) -> None:
     """Reference images (train/test EXR + view CSVs), the QEM atlas mesh and classic bakes."""
+    started = time.perf_counter()
     width, intensity = cfg["resolution"], cfg["intensity"]
     views = {s: case_views(cfg, case, s) for s in ("train", "test")}
     spp = {"train": cfg["reference_spp"], "test": cfg["test_spp"]}
@@ -157,6 +159,7 @@ def prepare_case(case: str, cfg: dict, mi, out: dict[str, str]) -> None:
             {"case": case, "quantity": "lowpoly_triangles", "value": len(f)},
             {"case": case, "quantity": "triangle_fraction", "value": len(f) / len(df)},
             {"case": case, "quantity": "texture_size", "value": cfg["texture_size"]},
+            {"case": case, "quantity": "prepare_seconds", "value": time.perf_counter() - started},
         ]
     )
     io.write_csv(out["stats"], stats)
