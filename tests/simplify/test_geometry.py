@@ -11,7 +11,8 @@ import trimesh
 from neurender.metaballs.raymarch import field
 from neurender.metaballs.scenes import Scene
 from neurender.mitsuba_setup import variant_for
-from neurender.simplify import assets, bake, cameras, mesh_ops, render
+from neurender.prt.geometry_image import vertex_normals
+from neurender.simplify import assets, bake, cameras, mesh_ops
 
 
 def test_variant_for_devices():
@@ -68,7 +69,7 @@ def test_implicit_mesh_of_one_ball_is_its_sphere():
     )
     r = np.linalg.norm(v, axis=1)
     assert np.abs(r - 1).max() < 3.0 / 39  # within one grid cell
-    n = render.vertex_normals(v, f)
+    n = vertex_normals(v, f)
     assert ((n * v).sum(1) / r > 0.95).all()  # outward
 
 

@@ -18,8 +18,8 @@ import embreex.rtcore_scene
 import numpy as np
 import scipy.ndimage
 
+from neurender.prt.geometry_image import vertex_normals
 from neurender.simplify.mesh_ops import LowPolyMesh
-from neurender.simplify.render import vertex_normals
 
 AttributeFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 

@@ -59,14 +59,14 @@ def image_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
 def variant_shape(mi, variant: str, case: str, inputs: dict):
     """The Mitsuba mesh of one variant at the shared triangle count and texture size."""
     low = stage.load_lowpoly(inputs[f"{case}_lowpoly"])
-    albedo = stage.from_png16(io.read_png(inputs[f"{case}_baked_albedo"]))
+    albedo = stage.read_texture(inputs[f"{case}_baked_albedo"])
     positions, normal_map = low.positions, None
     if variant == "baked":
-        normal_map = stage.from_png16(io.read_png(inputs[f"{case}_baked_normal"]))
+        normal_map = stage.read_texture(inputs[f"{case}_baked_normal"])
     elif variant == "ours":
         positions = io.load_npz(inputs[f"{case}_mesh"])["positions"]
-        normal_map = stage.from_png16(io.read_png(inputs[f"{case}_normal"]))
-        albedo = stage.from_png16(io.read_png(inputs[f"{case}_albedo"]))
+        normal_map = stage.read_texture(inputs[f"{case}_normal"])
+        albedo = stage.read_texture(inputs[f"{case}_albedo"])
     if case == "head" and variant != "ours":
         albedo = stage.HEAD_ALBEDO
     return render.mesh_shape(
@@ -186,7 +186,7 @@ def target_rows(frame: pd.DataFrame, stats: pd.DataFrame) -> pd.DataFrame:
 
 def object_crop(alpha: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
     """Rows and columns around the covered pixels of ``alpha (H, W)`` (all if none)."""
-    rows, cols = np.nonzero(alpha > 0.5)
+    rows, cols = np.nonzero(alpha >= 0.5)
     if len(rows) == 0:
         return slice(None), slice(None)
     h, w = alpha.shape

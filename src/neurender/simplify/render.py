@@ -15,17 +15,8 @@ from types import ModuleType
 import numpy as np
 from tqdm import tqdm
 
+from neurender.prt.geometry_image import vertex_normals
 from neurender.simplify.cameras import View
-
-
-def vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals ``(V, 3)`` of a triangle mesh."""
-    p = positions[faces]
-    face_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    n = np.zeros_like(positions)
-    for k in range(3):
-        np.add.at(n, faces[:, k], face_n)
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
 
 
 def bitmap(mi: ModuleType, data: np.ndarray) -> dict:
@@ -61,7 +52,8 @@ def mesh_shape(
     name: str = "mesh",
 ):
     """A Mitsuba mesh from ``(V, 3)`` positions, ``(F, 3)`` faces and optional ``(V, 2)`` UVs;
-    vertex normals are the area-weighted ones of :func:`vertex_normals`."""
+    vertex normals are the area-weighted ones of
+    :func:`neurender.prt.geometry_image.vertex_normals`."""
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf)
     mesh = mi.Mesh(

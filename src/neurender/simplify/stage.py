@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import torch
 import trimesh
+from PIL import Image
 
 from neurender import io
 from neurender.metaballs.raymarch import field, surface_attributes
@@ -85,8 +86,9 @@ def to_png16(texture: np.ndarray) -> np.ndarray:
     return np.round(np.clip(texture, 0, 1) * 65535).astype(np.uint16)
 
 
-def from_png16(image: np.ndarray) -> np.ndarray:
-    return image[..., :3].astype(np.float64) / 65535.0
+def read_texture(path: str | Path) -> np.ndarray:
+    """A texture written by :func:`to_png16` as ``(T, T, 3)`` float64 in [0, 1]."""
+    return io.read_png(path)[..., :3].astype(np.float64) / 65535.0
 
 
 def prepare_case(case: str, cfg: dict, mi, out: dict[str, str]) -> None:
@@ -202,13 +204,9 @@ def optimise_case(case: str, cfg: dict, mi, dr, inputs: dict, out: dict) -> None
         positions[low.vmap],
         low.uv_faces,
         process=False,
-        visual=trimesh.visual.TextureVisuals(uv=low.uvs, image=_pil(albedo_map)),
+        visual=trimesh.visual.TextureVisuals(
+            uv=low.uvs, image=Image.fromarray(io.to_uint8(albedo_map))
+        ),
     )
     with io.atomic_path(out["obj"]) as tmp:
         textured.export(tmp, include_texture=True, mtl_name=f"{case}.mtl")
-
-
-def _pil(texture: np.ndarray):
-    from PIL import Image
-
-    return Image.fromarray(np.round(np.clip(texture, 0, 1) * 255).astype(np.uint8))
