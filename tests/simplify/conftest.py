@@ -2,14 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from neurender.mitsuba_setup import import_mitsuba
 from neurender.simplify import bake, mesh_ops
-
-
-@pytest.fixture(scope="session")
-def mitsuba():
-    """``(mi, dr)`` on the CPU (the llvm variant CI has)."""
-    return import_mitsuba("cpu")
 
 
 @pytest.fixture

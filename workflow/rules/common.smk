@@ -55,7 +55,7 @@ def prt_all_objects():
 
 def report_tables():
     tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
-    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + metaballs_tables() + simplify_tables()
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables() + ndr_tables() + metaballs_tables() + simplify_tables()
 
 
 def report_figures():
@@ -65,7 +65,7 @@ def report_figures():
     fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
-    return frames + experiments + fixed + metaballs_figures() + simplify_figures()
+    return frames + experiments + fixed + ndr_figures() + metaballs_figures() + simplify_figures()
 
 
 def prt_subset(*keys):
@@ -183,3 +183,74 @@ def simplify_figures():
     if not SIMPLIFY_CASES:
         return []
     return expand("results/simplification/figures/{name}.png", name=("comparison", "loss_curves"))
+
+
+NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
+NDR_DIFFUSE_VARIANTS = ("ndr_diffuse", "real_shading")
+
+
+def ndr_splits():
+    splits = ["train", "val", "test"]
+    if any(v in NDR_DIFFUSE_VARIANTS for v in NDR_VARIANTS):
+        splits += ["diffuse_train", "diffuse_val", "diffuse_test"]
+    return splits
+
+
+def ndr_data_params(wildcards):
+    """The NDR data subtree plus seed and device; a split's job also gets its sample count."""
+    cfg = {"seed": config["seed"], "device": config["device"], **config["ndr"]}
+    split = wildcards.get("split")
+    if split:
+        kind, _, part = split.rpartition("_")
+        cfg["count"] = config["ndr"]["diffuse_samples" if kind else "samples"][part]
+    return cfg
+
+
+def ndr_model_params(wildcards):
+    """Model keys plus the data keys the networks need."""
+    return {"seed": config["seed"], "device": config["device"], "width": config["ndr"]["width"],
+            **config["ndr_model"]}
+
+
+def ndr_split_files(split):
+    return {
+        "dir": f"results/ndr/{split}",
+        "manifest": f"results/ndr/{split}_manifest.csv",
+        "lighting": f"results/ndr/{split}_lighting.csv",
+    }
+
+
+def ndr_train_inputs(wildcards):
+    prefix = "diffuse_" if wildcards.variant in NDR_DIFFUSE_VARIANTS else ""
+    return {
+        f"{part}_{key}": path
+        for part in ("train", "val")
+        for key, path in ndr_split_files(prefix + part).items()
+    }
+
+
+def ndr_evaluate_inputs(wildcards):
+    inputs = {f"checkpoint_{v}": f"results/ndr/models/{v}.pt" for v in NDR_VARIANTS}
+    inputs.update({f"loss_{v}": f"results/ndr/models/{v}_loss.csv" for v in NDR_VARIANTS})
+    for split in ndr_splits():
+        if split.endswith("test"):
+            inputs.update({f"{split}_{k}": p for k, p in ndr_split_files(split).items()})
+    inputs["train_manifest"] = "results/ndr/train_manifest.csv"
+    return inputs
+
+
+def ndr_benchmarks():
+    """Every NDR job's benchmark file: the stage's measured time."""
+    return (
+        expand("results/benchmarks/ndr_data/{split}.tsv", split=ndr_splits())
+        + expand("results/benchmarks/ndr_train/{variant}.tsv", variant=NDR_VARIANTS)
+        + ["results/benchmarks/ndr_evaluate/ndr_evaluate.tsv"]
+    )
+
+
+def ndr_tables():
+    return expand("results/ndr/{table}.csv", table=("targets", "metrics", "timing", "furnace", "data"))
+
+
+def ndr_figures():
+    return expand("results/ndr/figures/{name}.png", name=("buffers", "comparison", "training_curves"))

@@ -1,0 +1,125 @@
+"""HDR environment maps for NDR: random procedural ones, user EXR folders, SH and downsampling.
+
+Maps are lat-long ``(H, 2H, 3)`` float32 linear radiance in the convention of
+:mod:`neurender.sh` (Mitsuba's ``envmap``: y up, ``u = atan2(x, -z) / 2 pi``). The network's
+light input is the 5-band SH projection, 25 coefficients x RGB = 75 numbers, ordered
+coefficient-major (``k * 3 + channel``, ``k = l (l + 1) + m``).
+"""
+
+from __future__ import annotations
+
+import colorsys
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from neurender import lights, sh
+
+SH_BANDS = 5
+SH_FEATURES = SH_BANDS**2 * 3
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _random_direction(rng: np.random.Generator, min_elevation_deg: float) -> np.ndarray:
+    """Uniform azimuth; elevation uniform in sine above ``min_elevation_deg``."""
+    s = rng.uniform(math.sin(math.radians(min_elevation_deg)), 1.0)
+    phi = rng.uniform(0, 2 * math.pi)
+    c = math.sqrt(1 - s * s)
+    return np.array([c * math.sin(phi), s, -c * math.cos(phi)])
+
+
+def _colour(rng: np.random.Generator, saturation: float) -> np.ndarray:
+    return np.array(colorsys.hsv_to_rgb(rng.uniform(), rng.uniform(0, saturation), 1.0))
+
+
+def random_environment(rng: np.random.Generator, height: int) -> np.ndarray:
+    """A random map ``(height, 2 height, 3)`` with real dynamic range.
+
+    Sky gradient (zenith, horizon and ground colours), a coloured fill lobe, and one or two
+    emitters: a sun (2-6 degree disk, 100-2000 x the sky) or a window-like soft rectangle.
+    """
+    dirs, _ = sh.latlong_directions(height, 2 * height)
+    up = dirs[..., 1:2]
+    sky_level = rng.uniform(0.1, 0.8)
+    zenith, horizon = _colour(rng, 0.6) * sky_level, _colour(rng, 0.3) * sky_level
+    ground = _colour(rng, 0.5) * sky_level * rng.uniform(0.1, 0.6)
+    t = np.clip(up, 0, 1) ** 0.5
+    img = np.where(up > 0, (1 - t) * horizon + t * zenith, ground)
+    fill_dir = _random_direction(rng, -30)
+    fill = np.clip(dirs @ fill_dir, 0, 1)[..., None] ** rng.uniform(1, 4)
+    img = img + fill * _colour(rng, 0.8) * rng.uniform(0.1, 1.0)
+    for _ in range(int(rng.integers(1, 3))):
+        centre = _random_direction(rng, 5)
+        cos_angle = dirs @ centre
+        if rng.uniform() < 0.5:  # sun
+            radius = math.radians(rng.uniform(2, 6))
+            edge = np.clip((cos_angle - math.cos(radius)) / (1 - math.cos(radius)) * 4, 0, 1)
+            img = img + edge[..., None] * _colour(rng, 0.3) * rng.uniform(10, 120)
+        else:  # window: a soft-edged rectangle in the tangent plane of its centre
+            side = _unit(np.cross(centre, [0.0, 1.0, 0.0]) + 1e-6)
+            upward = np.cross(side, centre)
+            x, y = dirs @ side, dirs @ upward
+            half_w, half_h = np.tan(np.radians(rng.uniform(8, 25, size=2)))
+            inside = (
+                np.clip((half_w - np.abs(x)) * 20, 0, 1)
+                * np.clip((half_h - np.abs(y)) * 20, 0, 1)
+                * (cos_angle > 0)
+            )
+            img = img + inside[..., None] * _colour(rng, 0.2) * rng.uniform(3, 15)
+    return np.asarray(img, np.float32)
+
+
+def rotate_about_up(image: np.ndarray, columns: int) -> np.ndarray:
+    """Rotate a lat-long map about +y by a whole number of pixel columns (exact)."""
+    return np.roll(image, columns, axis=1)
+
+
+def resize_latlong(image: np.ndarray, height: int) -> np.ndarray:
+    """Area-weighted resampling of ``(H, 2H, 3)`` to ``(height, 2 height, 3)``.
+
+    Each output pixel averages input radiance weighted by solid angle (``sin theta``),
+    so the map's irradiance is kept.
+    """
+    h_in = image.shape[0]
+    weight = np.sin(math.pi * (np.arange(h_in) + 0.5) / h_in)[:, None, None]
+    x = torch.from_numpy(np.ascontiguousarray((image * weight).transpose(2, 0, 1)))[None]
+    w = torch.from_numpy(np.broadcast_to(weight, (h_in, 2 * h_in, 1)).transpose(2, 0, 1).copy())
+    size = (height, 2 * height)
+    num = torch.nn.functional.interpolate(x.double(), size=size, mode="area")
+    den = torch.nn.functional.interpolate(w[None].double(), size=size, mode="area")
+    return (num / den)[0].permute(1, 2, 0).numpy().astype(np.float32)
+
+
+def sh_features(image: np.ndarray) -> np.ndarray:
+    """The network's light input: 5-band SH of the map, ``(75,)`` float32 (see module doc)."""
+    return sh.project_latlong(image, SH_BANDS).reshape(-1).astype(np.float32)
+
+
+def user_probes(folder: str | Path) -> list[Path]:
+    """The ``*.exr`` lat-long maps in ``folder`` (sorted), each checked by
+    :func:`neurender.lights.load_probe` when used."""
+    path = Path(folder)
+    if not path.is_dir():
+        raise FileNotFoundError(f"ndr.user_probes_dir {path} is not a folder of EXR maps")
+    found = sorted(path.glob("*.exr"))
+    if not found:
+        raise FileNotFoundError(f"ndr.user_probes_dir {path} holds no *.exr lat-long maps")
+    return found
+
+
+def environment_for_sample(
+    rng: np.random.Generator, height: int, probes: list[Path], user_fraction: float
+) -> tuple[np.ndarray, str]:
+    """A map for one sample and its name: with probability ``user_fraction`` a user probe
+    (resized and randomly rotated), else a procedural one (also randomly rotated)."""
+    if probes and rng.uniform() < user_fraction:
+        path = probes[int(rng.integers(len(probes)))]
+        image, name = resize_latlong(lights.load_probe(path), height), path.stem
+    else:
+        image, name = random_environment(rng, height), "procedural"
+    return rotate_about_up(image, int(rng.integers(2 * height))), name

@@ -1,0 +1,156 @@
+"""Ground truth and G-buffers of one NDR scene: an object under a distant environment map.
+
+Camera: perspective, fixed at ``(0, 0, distance)`` looking at the origin with +y up, so
+world space *is* view space (x right, y up, z towards the viewer) and the SH light input
+needs no rotation. Objects fit the unit sphere, so linear depth along the view axis lies
+in ``[distance - 1, distance + 1]``; the depth buffer maps that range to [0, 1] with
+background 1.
+
+Ground truth is Mitsuba 3's ``direct`` integrator (direct illumination with occlusion,
+MIS between emitter and BSDF samples, box pixel filter):
+
+* ``I_D``: every surface a white Lambertian (``reflectance = 1``), so ``I_D`` is the
+  cosine-weighted, visibility-masked irradiance over pi;
+* ``I_S``: every surface a GGX microfacet reflector with Fresnel = 1 and the per-vertex
+  ``alpha = roughness^2``, so ``I_R = I_S * A_S + I_D * A_D`` exactly (paper eq. 2).
+
+G-buffers are point-sampled at pixel centres by Embree with barycentric interpolation of
+the same per-vertex data Mitsuba shades (smooth vertex normals, roughness, albedos).
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+
+from neurender.ndr.objects import ProceduralObject
+from neurender.prt.geometry_image import vertex_normals
+from neurender.prt.transfer import embree_scene
+from neurender.simplify.cameras import View, pixel_rays
+
+
+def camera(distance: float, fov: float) -> View:
+    """The fixed NDR camera (no point light: the ``light`` field is unused)."""
+    return View((0.0, 0.0, float(distance)), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), fov, 0.0, 0.0)
+
+
+def _mesh(mi: ModuleType, obj: ProceduralObject, bsdf: dict):
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(bsdf)
+    mesh = mi.Mesh(
+        "object", len(obj.vertices), len(obj.faces), has_vertex_normals=True, props=props
+    )
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = np.ravel(obj.vertices).astype(np.float32)
+    params["faces"] = np.ravel(obj.faces).astype(np.uint32)
+    normals = vertex_normals(obj.vertices.astype(np.float64), obj.faces)
+    params["vertex_normals"] = np.ravel(normals).astype(np.float32)
+    params.update()
+    mesh.add_attribute("vertex_alpha", 1, np.ravel(obj.roughness.astype(np.float32) ** 2))
+    return mesh
+
+
+DIFFUSE_BSDF = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
+SPECULAR_BSDF = {
+    "type": "roughconductor",
+    "distribution": "ggx",
+    "material": "none",
+    "specular_reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]},
+    "alpha": {"type": "mesh_attribute", "name": "vertex_alpha"},
+}
+# One scene renders both maps: a blend whose weight is 0 (diffuse) or 1 (specular) is
+# exactly one lobe, and switching it costs no scene rebuild (half the time per sample).
+_SWITCH_KEY = "object.bsdf.weight.value"
+
+
+def shading_maps(
+    mi: ModuleType,
+    obj: ProceduralObject,
+    environment: np.ndarray,
+    view: View,
+    width: int,
+    spp: int,
+    seed: int,
+    specular: bool = True,
+) -> dict[str, np.ndarray]:
+    """Ray-traced ``I_D`` and ``I_S`` ``(W, W, 3)`` float32 linear radiance and the pixel
+    coverage ``(W, W)``; ``I_S`` is zero (and not rendered) when ``specular`` is False."""
+    sensor = {
+        "type": "perspective",
+        "fov": view.fov,
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=view.origin, target=view.target, up=[0, 1, 0]
+        ),
+        "film": {
+            "type": "hdrfilm",
+            "width": width,
+            "height": width,
+            "rfilter": {"type": "box"},
+            "pixel_format": "rgba",
+        },
+        "sampler": {"type": "independent", "sample_count": spp},
+    }
+    bsdf = {"type": "blendbsdf", "weight": 0.0, "diffuse": DIFFUSE_BSDF, "specular": SPECULAR_BSDF}
+    scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "direct", "hide_emitters": True},
+            "sensor": sensor,
+            "environment": {
+                "type": "envmap",
+                "bitmap": mi.Bitmap(np.ascontiguousarray(environment, np.float32)),
+            },
+            "object": _mesh(mi, obj, bsdf),
+        }
+    )
+    image = np.array(mi.render(scene, seed=seed), dtype=np.float32)
+    out = {"I_D": image[..., :3], "coverage": image[..., 3]}
+    if specular:
+        params = mi.traverse(scene)
+        params[_SWITCH_KEY] = 1.0
+        params.update()
+        out["I_S"] = np.array(mi.render(scene, seed=seed + 1), dtype=np.float32)[..., :3]
+    else:
+        out["I_S"] = np.zeros_like(out["I_D"])
+    return out
+
+
+def g_buffers(obj: ProceduralObject, view: View, width: int) -> dict[str, np.ndarray]:
+    """Screen-space buffers at pixel centres, row 0 at the top.
+
+    Returns float32 arrays: ``normal`` ``(W, W, 3)`` unit view-space shading normals (0 off
+    the object), ``view_dir`` ``(W, W, 3)`` unit vectors from the surface to the eye,
+    ``depth`` ``(W, W)`` in [0, 1] (1 off the object), ``roughness`` ``(W, W)``,
+    ``albedo_diffuse`` and ``albedo_specular`` ``(W, W, 3)``, ``mask`` ``(W, W)`` in {0, 1}.
+    """
+    dirs = pixel_rays(view, width).reshape(-1, 3).astype(np.float32)
+    origins = np.broadcast_to(np.asarray(view.origin, np.float32), dirs.shape).copy()
+    hit = embree_scene(obj.vertices, obj.faces).run(origins, dirs, output=1)
+    prim = hit["primID"]
+    mask = prim >= 0
+    bary = np.stack([1 - hit["u"] - hit["v"], hit["u"], hit["v"]], -1)[mask]
+    corners = obj.faces[prim[mask]]
+
+    def interpolate(values: np.ndarray) -> np.ndarray:
+        values = values.reshape(len(values), -1)
+        img = np.zeros((width * width, values.shape[1]), np.float32)
+        img[mask] = np.einsum("pk,pkc->pc", bary, values[corners])
+        return img.reshape(width, width, -1)
+
+    normals = vertex_normals(obj.vertices.astype(np.float64), obj.faces)
+    normal = interpolate(normals)
+    normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
+    forward = -np.asarray(view.origin, np.float64) / np.linalg.norm(view.origin)
+    z = (hit["tfar"] * (dirs @ forward)).reshape(width, width)
+    distance = float(np.linalg.norm(view.origin))
+    m = mask.reshape(width, width)
+    return {
+        "normal": normal,
+        "view_dir": (-dirs).reshape(width, width, 3),
+        "depth": np.where(m, np.clip((z - (distance - 1)) / 2, 0, 1), 1.0).astype(np.float32),
+        "roughness": interpolate(obj.roughness)[..., 0],
+        "albedo_diffuse": interpolate(obj.albedo_diffuse),
+        "albedo_specular": interpolate(obj.albedo_specular),
+        "mask": m.astype(np.float32),
+    }

@@ -1,0 +1,78 @@
+import math
+
+import numpy as np
+import pytest
+
+from neurender.ndr import data, furnace, render
+from neurender.ndr.model import NDRDataset
+
+CFG = {
+    "seed": 3,
+    "device": "cpu",
+    "width": 32,
+    "camera_distance": 3.9,
+    "fov": 30.0,
+    "primitives": [2, 3],
+    "edge_length": 0.3,
+    "environment_height": 32,
+    "coarse_height": 8,
+    "coarse_samples": 16,
+    "spp": 8,
+    "reference_spp": 32,
+    "fixed_probe": "sky",
+    "user_probes_dir": "",
+    "user_probe_fraction": 0.5,
+}
+
+
+def test_white_furnace_checks_pass(mitsuba):
+    mi, _ = mitsuba
+    rows = furnace.furnace(mi, 32, 64, 0.5, 64, 0)
+    assert rows["passed"].all(), rows.to_string()
+
+
+def test_g_buffers_of_a_sphere_match_the_camera_analytically():
+    sphere = furnace.white_sphere(0.5)
+    width, distance, fov = 64, 3.9, 30.0
+    g = render.g_buffers(sphere, render.camera(distance, fov), width)
+    # Projected radius: the silhouette cone has half-angle asin(1 / d).
+    radius_px = math.tan(math.asin(1 / distance)) / math.tan(math.radians(fov / 2)) * width / 2
+    assert g["mask"].sum() == pytest.approx(math.pi * radius_px**2, rel=0.03)
+    centre = (slice(width // 2 - 1, width // 2 + 1),) * 2
+    # The nearest point (z = 1) is at depth d - 1, the start of the [d - 1, d + 1] range.
+    assert g["depth"][centre].max() < 0.01
+    np.testing.assert_allclose(g["normal"][centre].reshape(-1, 3), [[0, 0, 1]] * 4, atol=0.02)
+    assert (g["depth"][g["mask"] == 0] == 1).all()
+    assert (g["normal"][g["mask"] == 0] == 0).all()
+
+
+def test_split_names():
+    assert data.split_kind("diffuse_test") == ("diffuse", "test")
+    assert data.split_kind("train") == ("complex", "train")
+    with pytest.raises(ValueError, match="'glossy_train'"):
+        data.split_kind("glossy_train")
+
+
+def test_samples_are_deterministic_and_load_as_a_dataset(mitsuba, tmp_path):
+    mi, _ = mitsuba
+    a, light_a, row = data.make_sample(CFG, "test", 1, mi)
+    b, light_b, _ = data.make_sample(CFG, "test", 1, mi)
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    np.testing.assert_array_equal(light_a, light_b)
+    assert row["spp"] == CFG["reference_spp"]
+    assert {"I_D_noisy.R", "S_S.B", "N.Z", "mask"} <= set(a)
+    # The clean reference and the noisy render are independent estimates of one image.
+    m = a["mask"] > 0
+    assert abs(a["I_D.G"][m].mean() - a["I_D_noisy.G"][m].mean()) < 0.1 * a["I_D.G"][m].mean()
+
+    data.generate_split(
+        CFG, "test", 2, tmp_path / "test", tmp_path / "m.csv", tmp_path / "l.csv", 1
+    )
+    dataset = NDRDataset(tmp_path / "test", tmp_path / "m.csv", tmp_path / "l.csv", erosion=1)
+    item = dataset[1]
+    assert item["light"].shape == (75,)
+    assert item["N"].shape == (3, 32, 32) and item["I_S_noisy"].shape == (3, 32, 32)
+    # Eroding only removes pixels.
+    assert (item["mask"] <= dataset.buffers["mask"][1]).all()
+    assert item["mask"].sum() < (dataset[1]["N"].abs().sum(0) > 0).sum()

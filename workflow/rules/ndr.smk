@@ -1,0 +1,105 @@
+# NDR (Suppan et al. 2021): procedural scenes, Mitsuba ground truth, two-decoder U-Net,
+# ablations and baselines.
+
+
+rule ndr_data:
+    wildcard_constraints:
+        split="(diffuse_)?(train|val|test)",
+    output:
+        samples=directory("results/ndr/{split}"),
+        manifest="results/ndr/{split}_manifest.csv",
+        lighting="results/ndr/{split}_lighting.csv",
+    params:
+        cfg=ndr_data_params,
+    log:
+        "results/logs/ndr_data/{split}.log",
+    benchmark:
+        "results/benchmarks/ndr_data/{split}.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_data.py"
+
+
+rule ndr_summary:
+    input:
+        manifests=expand("results/ndr/{split}_manifest.csv", split=ndr_splits()),
+        example="results/ndr/test",
+    output:
+        csv="results/ndr/data.csv",
+        furnace="results/ndr/furnace.csv",
+        figure=report("results/ndr/figures/buffers.png", category="NDR"),
+    params:
+        cfg=ndr_data_params,
+        splits=ndr_splits(),
+    log:
+        "results/logs/ndr_summary/ndr_summary.log",
+    benchmark:
+        "results/benchmarks/ndr_summary/ndr_summary.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_summary.py"
+
+
+rule ndr_train:
+    input:
+        unpack(ndr_train_inputs),
+    output:
+        checkpoint="results/ndr/models/{variant}.pt",
+        loss="results/ndr/models/{variant}_loss.csv",
+    params:
+        cfg=ndr_model_params,
+    log:
+        "results/logs/ndr_train/{variant}.log",
+    benchmark:
+        "results/benchmarks/ndr_train/{variant}.tsv"
+    threads: config["ndr_model"]["threads"]
+    resources:
+        gpu=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_train.py"
+
+
+rule ndr_evaluate:
+    input:
+        unpack(ndr_evaluate_inputs),
+    output:
+        metrics="results/ndr/metrics.csv",
+        samples="results/ndr/metrics_samples.csv",
+        timing="results/ndr/timing.csv",
+        figure=report("results/ndr/figures/comparison.png", category="NDR"),
+        curves=report("results/ndr/figures/training_curves.png", category="NDR"),
+    params:
+        cfg=ndr_model_params,
+        variants=NDR_VARIANTS,
+    log:
+        "results/logs/ndr_evaluate/ndr_evaluate.log",
+    benchmark:
+        "results/benchmarks/ndr_evaluate/ndr_evaluate.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_evaluate.py"
+
+
+rule ndr_targets:
+    input:
+        metrics="results/ndr/metrics.csv",
+        benchmarks=ndr_benchmarks(),
+    output:
+        targets="results/ndr/targets.csv",
+    log:
+        "results/logs/ndr_targets/ndr_targets.log",
+    benchmark:
+        "results/benchmarks/ndr_targets/ndr_targets.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_targets.py"
