@@ -109,12 +109,13 @@ def test_targets_state_met_and_missed(tmp_path):
         ]
     ).to_csv(tmp_path / "m.csv", index=False)
     (tmp_path / "b.tsv").write_text("s\th:m:s\n600.0\t0:10:00\n")
+    # Two jobs of 600 s, on 2 threads and on 1: 15 min of wall time on 2 cores.
     evaluate.target_rows(
-        str(tmp_path / "m.csv"), [str(tmp_path / "b.tsv")] * 2, str(tmp_path / "t.csv")
+        str(tmp_path / "m.csv"), [str(tmp_path / "b.tsv")] * 2, [2, 1], 2, str(tmp_path / "t.csv")
     )
     t = pd.read_csv(tmp_path / "t.csv").set_index("check")["met"]
     assert not t[t.index.str.startswith("NDR DSSIM(I_R) >= 25%")].iloc[0]  # 0.05 > 0.75 * 0.06
     assert t["NDR DSSIM(I_R) below no_intrinsic (0.0800)"]
     assert not t["NDR DSSIM(I_R) below pix2pix (0.0300)"]
     assert t["no-intrinsic ablation clearly worse (DSSIM >= 1.2 x NDR)"]
-    assert t[t.index.str.startswith("whole NDR stage")].iloc[0]  # 20 min
+    assert t[t.index.str.startswith("whole NDR stage")].iloc[0]  # 15 min

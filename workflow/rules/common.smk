@@ -240,11 +240,13 @@ def ndr_evaluate_inputs(wildcards):
 
 
 def ndr_benchmarks():
-    """Every NDR job's benchmark file: the stage's measured time."""
+    """Every NDR job's benchmark file and its threads: the stage's measured time."""
+    train_threads = config["ndr_model"]["threads"]
     return (
-        expand("results/benchmarks/ndr_data/{split}.tsv", split=ndr_splits())
-        + expand("results/benchmarks/ndr_train/{variant}.tsv", variant=NDR_VARIANTS)
-        + ["results/benchmarks/ndr_evaluate/ndr_evaluate.tsv"]
+        [(f"results/benchmarks/ndr_data/{s}.tsv", workflow.cores) for s in ndr_splits()]
+        + [(f"results/benchmarks/ndr_train/{v}.tsv", train_threads) for v in NDR_VARIANTS]
+        + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
+        + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
     )
 
 

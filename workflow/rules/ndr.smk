@@ -91,9 +91,12 @@ rule ndr_evaluate:
 rule ndr_targets:
     input:
         metrics="results/ndr/metrics.csv",
-        benchmarks=ndr_benchmarks(),
+        benchmarks=[path for path, _ in ndr_benchmarks()],
     output:
         targets="results/ndr/targets.csv",
+    params:
+        job_threads=[threads for _, threads in ndr_benchmarks()],
+        cores=workflow.cores,
     log:
         "results/logs/ndr_targets/ndr_targets.log",
     benchmark:
