@@ -3,6 +3,7 @@ import math
 import numpy as np
 import pytest
 
+from neurender import lights
 from neurender.ndr import data, furnace, render
 from neurender.ndr.model import NDRDataset
 
@@ -76,3 +77,18 @@ def test_samples_are_deterministic_and_load_as_a_dataset(mitsuba, tmp_path):
     # Eroding only removes pixels.
     assert (item["mask"] <= dataset.buffers["mask"][1]).all()
     assert item["mask"].sum() < (dataset[1]["N"].abs().sum(0) > 0).sum()
+
+
+def test_user_maps_light_samples_and_the_test_split_gets_unseen_ones(mitsuba, tmp_path):
+    mi, _ = mitsuba
+    for i in range(3):
+        lights.write_probe(tmp_path / f"map{i}.exr", np.full((16, 32, 3), 0.5 + i, np.float32))
+    cfg = {**CFG, "user_probes_dir": str(tmp_path), "user_probe_fraction": 1.0}
+    assert [p.stem for p in data._user_probes(cfg, "test")] == ["map2"]
+    assert [p.stem for p in data._user_probes(cfg, "train")] == ["map0", "map1"]
+    _, light, row = data.make_sample(cfg, "train", 0, mi)
+    assert row["environment"] in ("map0", "map1")
+    # A constant map's SH is its DC term: 0.5 or 1.5 times sqrt(4 pi).
+    assert light[0] / math.sqrt(4 * math.pi) == pytest.approx(
+        0.5 + int(row["environment"][-1]), rel=1e-3
+    )

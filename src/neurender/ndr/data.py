@@ -23,6 +23,7 @@ import math
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -32,6 +33,7 @@ import torch
 from tqdm import tqdm
 
 from neurender import io, lights
+from neurender.mitsuba_setup import INSTALL_HINT
 from neurender.ndr import environments, objects, render
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import stable_seed, torch_generator
@@ -72,13 +74,16 @@ def channels(group: str, image: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _user_probes(cfg: dict, part: str) -> list[Path]:
-    """User maps for a split: every fifth (sorted) is held out for the test split."""
+    """User maps for a split: every fifth (sorted; the last one if there are fewer than
+    five) is held out for the test split, the rest light train and val. A single map
+    lights every split."""
     if not cfg["user_probes_dir"]:
         return []
     found = environments.user_probes(cfg["user_probes_dir"])
     if len(found) < 2:
         return found
-    return [p for i, p in enumerate(found) if (i % 5 == 4) == (part == "test")]
+    held_out = set(range(4, len(found), 5)) or {len(found) - 1}
+    return [p for i, p in enumerate(found) if (i in held_out) == (part == "test")]
 
 
 def make_sample(cfg: dict, split: str, index: int, mi) -> tuple[dict, np.ndarray, dict]:
@@ -222,6 +227,11 @@ def generate_split(
                 }
                 for k, value in enumerate(light)
             ]
+    except BrokenProcessPool as err:  # a worker died, e.g. Mitsuba or LLVM missing
+        raise SystemExit(
+            f"error: a rendering process for NDR split {split!r} failed ({err}); check that "
+            f"Mitsuba runs here: {INSTALL_HINT}"
+        ) from None
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
