@@ -48,12 +48,18 @@ def test_every_variant_renders_hdr_maps(name):
     assert torch.isfinite(out["I_R"]).all() and (out["I_R"] >= 0).all()
 
 
-def test_untrained_residual_model_renders_the_shading_input():
-    """With zero decoder heads the residual NDR is exactly the coarse shading composite."""
+def _zero_head_ndr() -> NDRModel:
+    """The residual NDR with all-zero decoder heads: it adds nothing to the coarse shading."""
     model = NDRModel(VARIANTS["ndr"], [4, 8], 8, 4, 32).eval()
     for decoder in model.net.decoders:
         torch.nn.init.zeros_(decoder.head.weight)
         torch.nn.init.zeros_(decoder.head.bias)
+    return model
+
+
+def test_untrained_residual_model_renders_the_shading_input():
+    """With zero decoder heads the residual NDR is exactly the coarse shading composite."""
+    model = _zero_head_ndr()
     batch = _batch()
     out, expected = model(batch), shading_input(batch)
     for key in ("I_D", "I_S", "I_R"):
@@ -61,10 +67,7 @@ def test_untrained_residual_model_renders_the_shading_input():
 
 
 def test_loss_is_zero_for_a_perfect_prediction():
-    model = NDRModel(VARIANTS["ndr"], [4, 8], 8, 4, 32).eval()
-    for decoder in model.net.decoders:
-        torch.nn.init.zeros_(decoder.head.weight)
-        torch.nn.init.zeros_(decoder.head.bias)
+    model = _zero_head_ndr()
     batch = _batch()
     batch["I_D"], batch["I_S"] = batch["S_D"], batch["S_S"]
     loss, logs, _ = loss_terms(model, batch)
@@ -119,3 +122,13 @@ def test_targets_state_met_and_missed(tmp_path):
     assert not t["NDR DSSIM(I_R) below pix2pix (0.0300)"]
     assert t["no-intrinsic ablation clearly worse (DSSIM >= 1.2 x NDR)"]
     assert t[t.index.str.startswith("whole NDR stage")].iloc[0]  # 15 min
+
+
+@pytest.mark.parametrize("name", ["no_shading", "real_shading"])
+def test_variants_without_the_shading_input_ignore_it(name):
+    """No residual prior may leak the coarse shading into the shading-input ablation."""
+    model = NDRModel(VARIANTS[name], [4, 8], 8, 4, 32).eval()
+    assert not model.residual
+    batch = _batch()
+    other = {**batch, "S_D": batch["S_D"] * 3, "S_S": batch["S_S"] * 0.1}
+    torch.testing.assert_close(model(batch)["I_D"], model(other)["I_D"])

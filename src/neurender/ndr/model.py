@@ -88,7 +88,7 @@ VARIANTS: dict[str, Variant] = {
         decoder_scale=2,
         description="Intrinsic image ablation (albedos in, I_R out)",
     ),
-    "no_shading": Variant(("N", "R", "D"), description="Shading input ablation"),
+    "no_shading": Variant(("N", "R", "D"), residual=False, description="Shading input ablation"),
     "no_sh": Variant(_NDR_INPUTS, light=False, description="SH input ablation"),
     "no_depth": Variant(("N", "R", "S_D", "S_S"), description="Depth input ablation"),
     "pix2pix": Variant(
@@ -205,7 +205,9 @@ class NDRModel(torch.nn.Module):
     ):
         super().__init__()
         self.variant = variant
-        self.residual = variant.residual and shading_residual
+        # The prior is the shading input: only variants that see it may build on it.
+        sees_shading = {"S_D", "S_S"} <= set(variant.inputs)
+        self.residual = variant.residual and shading_residual and sees_shading
         cin = model_input_channels(variant)
         per_decoder = 3 if variant.decoders == len(variant.targets) else 3 * len(variant.targets)
         if variant.arch == "pix2pix":
