@@ -92,3 +92,17 @@ def test_user_maps_light_samples_and_the_test_split_gets_unseen_ones(mitsuba, tm
     assert light[0] / math.sqrt(4 * math.pi) == pytest.approx(
         0.5 + int(row["environment"][-1]), rel=1e-3
     )
+
+
+def test_turning_the_map_relights_without_changing_the_buffers(mitsuba):
+    mi, _ = mitsuba
+    cfg = {**CFG, "reference_spp": 16}
+    base, light, _ = data.make_sample(cfg, "test", 2, mi)
+    turned, turned_light, _ = data.make_sample(cfg, "test", 2, mi, env_shift=16)
+    for key in ("N.X", "D", "R", "A_D.G", "A_S.B", "mask"):
+        np.testing.assert_array_equal(base[key], turned[key], err_msg=key)
+    for key in ("S_D.R", "I_D.R"):
+        assert not np.allclose(base[key], turned[key]), key
+    # A turn about +y keeps the SH terms that are invariant under it (DC, y-dipole).
+    np.testing.assert_allclose(turned_light[:6], light[:6], rtol=1e-5, atol=1e-6)
+    assert not np.allclose(turned_light[9:12], light[9:12])

@@ -186,6 +186,11 @@ def simplify_figures():
 
 
 NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
+if config["ndr_model"]["relight_sample"] >= config["ndr"]["samples"]["test"]:
+    raise ValueError(
+        f"config: ndr_model.relight_sample {config['ndr_model']['relight_sample']} must be below "
+        f"ndr.samples.test ({config['ndr']['samples']['test']})"
+    )
 NDR_DIFFUSE_VARIANTS = ("ndr_diffuse", "real_shading")
 
 
@@ -207,9 +212,17 @@ def ndr_data_params(wildcards):
 
 
 def ndr_model_params(wildcards):
-    """Model keys plus the data keys the networks need."""
+    """Model keys (not the relighting figure's) plus the data keys the networks need."""
+    model = {k: v for k, v in config["ndr_model"].items() if not k.startswith("relight_")}
     return {"seed": config["seed"], "device": config["device"], "width": config["ndr"]["width"],
-            **config["ndr_model"]}
+            **model}
+
+
+def ndr_relight_params(wildcards):
+    """The data keys that regenerate a test sample, plus the model keys relighting reads."""
+    return {**ndr_data_params(wildcards), "mask_erosion": config["ndr_model"]["mask_erosion"],
+            "relight_sample": config["ndr_model"]["relight_sample"],
+            "relight_turns": config["ndr_model"]["relight_turns"]}
 
 
 def ndr_split_files(split):
@@ -247,12 +260,15 @@ def ndr_benchmarks():
         + [(f"results/benchmarks/ndr_train/{v}.tsv", train_threads) for v in NDR_VARIANTS]
         + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
         + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
+        + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
     )
 
 
 def ndr_tables():
-    return expand("results/ndr/{table}.csv", table=("targets", "metrics", "timing", "furnace", "data"))
+    tables = ("targets", "metrics", "timing", "relighting", "furnace", "data")
+    return expand("results/ndr/{table}.csv", table=tables)
 
 
 def ndr_figures():
-    return expand("results/ndr/figures/{name}.png", name=("buffers", "comparison", "training_curves"))
+    names = ("buffers", "comparison", "relighting", "training_curves")
+    return expand("results/ndr/figures/{name}.png", name=names)

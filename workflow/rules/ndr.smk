@@ -106,3 +106,22 @@ rule ndr_targets:
         "../envs/neurender.yaml"
     script:
         "../scripts/ndr_targets.py"
+
+
+rule ndr_relight:
+    input:
+        checkpoint="results/ndr/models/ndr.pt",
+    output:
+        csv="results/ndr/relighting.csv",
+        figure=report("results/ndr/figures/relighting.png", category="NDR"),
+    params:
+        cfg=ndr_relight_params,
+    log:
+        "results/logs/ndr_relight/ndr_relight.log",
+    benchmark:
+        "results/benchmarks/ndr_relight/ndr_relight.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/ndr_relight.py"

@@ -86,8 +86,14 @@ def _user_probes(cfg: dict, part: str) -> list[Path]:
     return [p for i, p in enumerate(found) if (i in held_out) == (part == "test")]
 
 
-def make_sample(cfg: dict, split: str, index: int, mi) -> tuple[dict, np.ndarray, dict]:
-    """Render one sample: ``(EXR channels, SH features (75,), manifest row)``."""
+def make_sample(
+    cfg: dict, split: str, index: int, mi, env_shift: int = 0
+) -> tuple[dict, np.ndarray, dict]:
+    """Render one sample: ``(EXR channels, SH features (75,), manifest row)``.
+
+    ``env_shift`` turns the sample's map about +y by that many columns (relighting the same
+    object for the paper's Fig. 3 (d)); 0 is the sample as stored.
+    """
     kind, part = split_kind(split)
     rng = np.random.default_rng(stable_seed(cfg["seed"], "ndr", split, index))
     start = time.perf_counter()
@@ -104,6 +110,7 @@ def make_sample(cfg: dict, split: str, index: int, mi) -> tuple[dict, np.ndarray
             _user_probes(cfg, part),
             cfg["user_probe_fraction"],
         )
+    env = environments.rotate_about_up(env, env_shift)
     view = render.camera(cfg["camera_distance"], cfg["fov"])
     width = cfg["width"]
     g = render.g_buffers(obj, view, width)

@@ -121,12 +121,35 @@ def channel_count(group: str) -> int:
     return max(1, len(BUFFERS.get(group) or NOISY.get(group, ())))
 
 
+def light_features(sh: np.ndarray | torch.Tensor) -> torch.Tensor:
+    """SH features ``(..., 75)`` as the networks take them: ``sign(c) log(1 + |c|)``."""
+    light = torch.tensor(np.asarray(sh, np.float32))
+    return torch.sign(light) * torch.log1p(light.abs())
+
+
+def stack_samples(samples: list[dict[str, np.ndarray]], erosion: int) -> dict[str, torch.Tensor]:
+    """EXR channel dicts of one kind (see :mod:`neurender.ndr.data`) to buffer tensors
+    ``(N, C, H, W)`` keyed by group, the mask eroded by ``erosion`` pixels."""
+    first = samples[0]
+    groups = [g for g in {**BUFFERS, **NOISY} if any(c.split(".")[0] == g for c in first)]
+    buffers = {}
+    for g in groups:
+        suffixes = BUFFERS.get(g) or NOISY.get(g) or ()
+        keys = [f"{g}.{s}" for s in suffixes] if suffixes else [g]
+        stacked = np.stack([np.stack([c[k] for k in keys]) for c in samples])
+        buffers[g] = torch.from_numpy(stacked.astype(np.float32))
+    if erosion > 0:
+        mask = buffers["mask"]
+        buffers["mask"] = 1 - F.max_pool2d(1 - mask, 2 * erosion + 1, stride=1, padding=erosion)
+    return buffers
+
+
 class NDRDataset(Dataset):
     """A split in memory. Items are dicts of float32 tensors:
 
     ``N`` (3, H, W) in [-1, 1], ``R`` (1), ``D`` (1), ``A_D``/``A_S`` (3) in [0, 1],
     ``S_D``/``S_S``/``I_D``/``I_S`` (3) linear HDR, ``mask`` (1) eroded by ``erosion`` px,
-    ``light`` (75) the SH features, compressed as the module doc says, and ``I_D_noisy``,
+    ``light`` (75) the SH features (:func:`light_features`), and ``I_D_noisy``,
     ``I_S_noisy`` on test splits.
     """
 
@@ -141,24 +164,10 @@ class NDRDataset(Dataset):
         table = sh.pivot(index="sample", columns="k", values="value").loc[frame["sample"]]
         if table.shape[1] != SH_FEATURES or table.isna().any().any():
             raise ValueError(f"{lighting}: expected {SH_FEATURES} SH values for every sample")
-        light = torch.from_numpy(table.to_numpy(np.float32, copy=True))
-        self.light = torch.sign(light) * torch.log1p(light.abs())
-        first = io.read_exr(Path(folder) / frame["file"].iloc[0])
-        groups = [g for g in {**BUFFERS, **NOISY} if any(c.split(".")[0] == g for c in first)]
-        self.buffers = {g: [] for g in groups}
-        for name in frame["file"]:
-            chans = io.read_exr(Path(folder) / name)
-            for g in groups:
-                suffixes = BUFFERS.get(g) or NOISY.get(g) or ()
-                keys = [f"{g}.{s}" for s in suffixes] if suffixes else [g]
-                self.buffers[g].append(np.stack([chans[k] for k in keys]))
-        self.buffers = {
-            g: torch.from_numpy(np.stack(v).astype(np.float32)) for g, v in self.buffers.items()
-        }
-        mask = self.buffers["mask"]
-        if erosion > 0:
-            mask = 1 - F.max_pool2d(1 - mask, 2 * erosion + 1, stride=1, padding=erosion)
-        self.buffers["mask"] = mask
+        self.light = light_features(table.to_numpy(np.float32))
+        self.buffers = stack_samples(
+            [io.read_exr(Path(folder) / name) for name in frame["file"]], erosion
+        )
 
     def __len__(self) -> int:
         return len(self.light)
