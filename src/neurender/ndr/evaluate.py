@@ -21,6 +21,7 @@ import torch
 from neurender import io, metrics, train
 from neurender.ndr import model as ndr_model
 from neurender.ndr.model import SHADING_INPUT, VARIANTS, compose, reinhard
+from neurender.nn.unet import count_parameters
 from neurender.plots import save_figure
 
 NOISE_FLOOR = "noise floor"
@@ -95,9 +96,18 @@ def evaluate(
             NOISE_FLOOR: compose(b["I_D_noisy"], b["I_S_noisy"], b),
             SHADING_INPUT: ndr_model.shading_input(b),
         }
+        budgets = []
         for name, path in checkpoints.items():
             if VARIANTS[name].data == kind:
-                methods[name] = predict(ndr_model.load_model(path, device), data, device)
+                model = ndr_model.load_model(path, device)
+                methods[name] = predict(model, data, device)
+                # Budgets differ between variants (the issue lets baselines train less):
+                # the table shows each network's epochs and size beside its errors.
+                epochs = len(train.load_checkpoint(path)["history"])
+                budgets += _tidy(kind, name, {"epochs": torch.tensor(float(epochs))})
+                budgets += _tidy(
+                    kind, name, {"parameters": torch.tensor(float(count_parameters(model.net)))}
+                )
         for name, pred in methods.items():
             values = score(pred, truth, mask)
             direct = VARIANTS.get(name) and "I_R" in VARIANTS[name].targets
@@ -116,6 +126,7 @@ def evaluate(
                     }
                     for i, x in enumerate(v)
                 ]
+        rows += budgets
         if kind == "complex":
             shown = {"truth": truth, "buffers": b, "methods": methods}
     io.write_csv(out_metrics, pd.DataFrame(rows))
