@@ -121,6 +121,10 @@ def channel_count(group: str) -> int:
     return max(1, len(BUFFERS.get(group) or NOISY.get(group, ())))
 
 
+def model_input_channels(variant: Variant) -> int:
+    return sum(channel_count(g) for g in variant.inputs)
+
+
 def light_features(sh: np.ndarray | torch.Tensor) -> torch.Tensor:
     """SH features ``(..., 75)`` as the networks take them: ``sign(c) log(1 + |c|)``."""
     light = torch.tensor(np.asarray(sh, np.float32))
@@ -308,10 +312,15 @@ def train_variant(
         )
         bce = torch.nn.BCEWithLogitsLoss()
 
-        def loss_fn(m, batch):
+        def condition_and_target(batch):
+            """pix2pix works in [-1, 1]: the input buffers and the tone-mapped ``I_R``."""
             x = network_input(batch, variant.inputs) * 2 - 1
-            fake = m.tone_mapped(batch)["I_R"] * 2 - 1
             real = reinhard(compose(batch["I_D"], batch["I_S"], batch)["I_R"]) * 2 - 1
+            return x, real
+
+        def loss_fn(m, batch):
+            x, real = condition_and_target(batch)
+            fake = m.tone_mapped(batch)["I_R"] * 2 - 1
             l1 = ((fake - real).abs() * batch["mask"]).mean()
             loss = cfg["l1_weight"] * l1
             logs = {"l1": l1.item()}
@@ -323,8 +332,7 @@ def train_variant(
             return loss, logs, fake.detach()
 
         def discriminator_loss(module, batch, fake):
-            x = network_input(batch, variant.inputs) * 2 - 1
-            real = reinhard(compose(batch["I_D"], batch["I_S"], batch)["I_R"]) * 2 - 1
+            x, real = condition_and_target(batch)
             r, f = module(torch.cat([x, real], 1)), module(torch.cat([x, fake], 1))
             return 0.5 * (bce(r, torch.ones_like(r)) + bce(f, torch.zeros_like(f))), {}
 
@@ -347,10 +355,6 @@ def train_variant(
         },
         adversary=adversary,
     )
-
-
-def model_input_channels(variant: Variant) -> int:
-    return sum(channel_count(g) for g in variant.inputs)
 
 
 def load_model(checkpoint: str | Path, device: torch.device) -> NDRModel:

@@ -24,6 +24,8 @@ import numpy as np
 import trimesh
 from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseType
 
+from neurender.prt.geometry_image import vertex_normals
+
 PRIMITIVES = ("ellipsoid", "box", "cylinder")
 
 
@@ -37,6 +39,12 @@ class ProceduralObject:
     albedo_specular: np.ndarray  # (V, 3)
     roughness: np.ndarray  # (V,)
     n_primitives: int
+
+    @functools.cached_property
+    def normals(self) -> np.ndarray:
+        """Area-weighted unit vertex normals ``(V, 3)`` float64: what Mitsuba shades with
+        and the G-buffers store (computed once per object)."""
+        return vertex_normals(self.vertices.astype(np.float64), self.faces)
 
 
 def fractal_noise(points: np.ndarray, seed: int, frequency: float, octaves: int = 4) -> np.ndarray:

@@ -25,7 +25,6 @@ from types import ModuleType
 import numpy as np
 
 from neurender.ndr.objects import ProceduralObject
-from neurender.prt.geometry_image import vertex_normals
 from neurender.prt.transfer import embree_scene
 from neurender.simplify.cameras import View, pixel_rays
 
@@ -44,8 +43,7 @@ def _mesh(mi: ModuleType, obj: ProceduralObject, bsdf: dict):
     params = mi.traverse(mesh)
     params["vertex_positions"] = np.ravel(obj.vertices).astype(np.float32)
     params["faces"] = np.ravel(obj.faces).astype(np.uint32)
-    normals = vertex_normals(obj.vertices.astype(np.float64), obj.faces)
-    params["vertex_normals"] = np.ravel(normals).astype(np.float32)
+    params["vertex_normals"] = np.ravel(obj.normals).astype(np.float32)
     params.update()
     mesh.add_attribute("vertex_alpha", 1, np.ravel(obj.roughness.astype(np.float32) ** 2))
     return mesh
@@ -138,8 +136,7 @@ def g_buffers(obj: ProceduralObject, view: View, width: int) -> dict[str, np.nda
         img[mask] = np.einsum("pk,pkc->pc", bary, values[corners])
         return img.reshape(width, width, -1)
 
-    normals = vertex_normals(obj.vertices.astype(np.float64), obj.faces)
-    normal = interpolate(normals)
+    normal = interpolate(obj.normals)
     normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
     forward = -np.asarray(view.origin, np.float64) / np.linalg.norm(view.origin)
     z = (hit["tfar"] * (dirs @ forward)).reshape(width, width)
