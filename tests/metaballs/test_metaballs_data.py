@@ -75,18 +75,71 @@ def test_ab_round_trip(tmp_path):
         ab.unpack(packed[:, :40])
 
 
+def _painted_circles(scene, width):
+    """Reference: the thesis's billboards drawn one by one, far to near."""
+    image = torch.zeros(4, width, width, dtype=torch.float64)
+    image[3] = 1.0
+    centre = scenes.project(scene.centres, width)
+    radius = inputs.projected_radius(scene, width)
+    depth = scenes.normalised_depth(scene.centres.norm(dim=1))
+    coords = torch.arange(width, dtype=torch.float64) + 0.5
+    for i in torch.argsort(depth, descending=True).tolist():
+        dist = torch.hypot(coords[None, :] - centre[i, 0], coords[:, None] - centre[i, 1])
+        ring = (dist > 0.9 * radius[i]) & (dist < radius[i])
+        image[:3, ring] = scene.colours[i][:, None]
+        image[3, ring] = depth[i]
+    return image
+
+
+def test_vectorised_circles_equal_painting_far_to_near():
+    gen = torch.Generator().manual_seed(2)
+    scene = scenes.sample_scene(25, (0.6, 1.6), gen)
+    torch.testing.assert_close(inputs.draw_inputs(scene, 48), _painted_circles(scene, 48))
+
+
+def test_mirrored_example_is_the_mirrored_scenes_example():
+    from neurender.metaballs import model
+
+    gen = torch.Generator().manual_seed(5)
+    scene = scenes.sample_scene(8, (0.8, 1.6), gen)
+    width = 32
+
+    def example(s):
+        x = model.network_inputs(s, width, "sphere_residual").double()
+        return x * 2 - 1, raymarch.render_gbuffers(s, width).stack().double() * 2 - 1
+
+    for horizontal, vertical in ((True, False), (False, True), (True, True)):
+        sign = torch.tensor([-1.0 if horizontal else 1.0, -1.0 if vertical else 1.0, 1.0])
+        mirrored = scenes.Scene(scene.centres * sign.double(), scene.radii, scene.colours)
+        x, y = model.flip(*example(scene), horizontal, vertical, spheres=True)
+        x_ref, y_ref = example(mirrored)
+        torch.testing.assert_close(x, x_ref, atol=1e-5, rtol=0)
+        torch.testing.assert_close(y, y_ref, atol=1e-5, rtol=0)
+
+
 def test_generate_split_is_deterministic_and_round_trips(tmp_path):
     from neurender import io
     from neurender.metaballs import data
 
-    cfg = {"seed": 3, "width": 16, "examples": {"test": 3}, "balls": [2, 5], "radius": [1.0, 2.0]}
-    for run in ("a", "b"):
-        data.generate_split("test", cfg, 1, tmp_path / run, tmp_path / f"{run}.csv")
+    cfg = {"seed": 3, "width": 16, "examples": {"test": 5}, "balls": [2, 5], "radius": [1.0, 2.0]}
+    for run, workers in (("a", 1), ("b", 2)):
+        data.generate_split(
+            "test", cfg, workers, tmp_path / run, tmp_path / f"{run}.csv", tmp_path / f"{run}_b.csv"
+        )
     m = io.read_csv(tmp_path / "a.csv", ["balls", "coverage", "min_depth_separation"])
-    assert len(m) == 3 and m.balls.between(2, 5).all()
+    assert len(m) == 5 and m.balls.between(2, 5).all()
+    assert m.example.tolist() == list(range(5))
     for f in m.file:
         np.testing.assert_array_equal(
             io.read_png(tmp_path / "a" / f), io.read_png(tmp_path / "b" / f)
         )
     back = ab.read_ab(tmp_path / "a" / m.file[0])
     assert back["inputs"].shape == (4, 16, 16)
+    scenes_back = data.read_scenes(tmp_path / "b_b.csv")
+    assert sorted(scenes_back) == list(range(5))
+    for i, scene in scenes_back.items():  # the ball table gives back the exact scene
+        ref = data.example_scene(cfg, "test", i)
+        assert len(scene) == m.balls[i]
+        for a, b in ((scene.centres, ref.centres), (scene.radii, ref.radii)):
+            assert torch.equal(a, b)
+        assert torch.equal(scene.colours, ref.colours)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import torch
 
-from neurender.metaballs import demo, evaluate, raymarch, scenes
+from neurender.metaballs import demo, evaluate, inputs, raymarch, scenes
 
 
 def _scene(centres, radii):
@@ -14,8 +14,8 @@ def _scene(centres, radii):
 
 def test_isolated_sphere_baseline_equals_the_field_for_one_ball():
     scene = _scene([[1.0, -0.5, 14.0]], [1.5])
-    a = evaluate.stack(evaluate.isolated_spheres(scene, 40))
-    b = evaluate.stack(raymarch.render_gbuffers(scene, 40))
+    a = inputs.draw_spheres(scene, 40).stack()
+    b = raymarch.render_gbuffers(scene, 40).stack()
     inside = evaluate.silhouette_depth(b) & evaluate.silhouette_depth(a)
     assert evaluate.iou(evaluate.silhouette_depth(a), evaluate.silhouette_depth(b)) > 0.97
     np.testing.assert_allclose(a[3][inside], b[3][inside], atol=1e-5)
@@ -24,15 +24,38 @@ def test_isolated_sphere_baseline_equals_the_field_for_one_ball():
 
 def test_blended_balls_differ_from_isolated_spheres():
     scene = _scene([[0.0, 0.0, 14.0], [1.6, 0.0, 14.0]], [1.2, 1.2])
-    a = evaluate.stack(evaluate.isolated_spheres(scene, 48))
-    b = evaluate.stack(raymarch.render_gbuffers(scene, 48))
+    a = inputs.draw_spheres(scene, 48).stack()
+    b = raymarch.render_gbuffers(scene, 48).stack()
     m = evaluate.example_metrics(a, b)
     assert m["iou_depth"] < 0.98 and m["normal_error_mean_deg"] > 1.0  # blending is missing
 
 
+def test_inflated_radii_single_ball_and_pair():
+    one = _scene([[0.5, 0.0, 15.0]], [1.3])
+    assert torch.equal(inputs.inflated_radii(one), one.radii)  # exact for an isolated ball
+    pair = _scene([[0.0, 0.0, 14.0], [3.0, 0.0, 14.0]], [1.2, 0.9])
+    # each ball sees the other's field r_j^2 / d^2 at its centre: r / sqrt(1 - G)
+    expected = torch.tensor([1.2 / (1 - 0.81 / 9) ** 0.5, 0.9 / (1 - 1.44 / 9) ** 0.5])
+    torch.testing.assert_close(inputs.inflated_radii(pair), expected.double())
+    buried = _scene([[0.0, 0.0, 14.0], [0.1, 0.0, 14.0]], [1.5, 1.5])  # G >> 1: capped
+    torch.testing.assert_close(
+        inputs.inflated_radii(buried), buried.radii / inputs.MIN_FIELD_GAP**0.5
+    )
+
+
+def test_inflated_spheres_are_closer_to_the_blend_than_isolated_ones():
+    gen = torch.Generator().manual_seed(4)
+    scene = scenes.sample_scene(15, (0.8, 1.6), gen)
+    truth = raymarch.render_gbuffers(scene, 48).stack()
+    isolated = evaluate.example_metrics(inputs.draw_spheres(scene, 48).stack(), truth)
+    inflated = evaluate.example_metrics(inputs.inflated_spheres(scene, 48).stack(), truth)
+    assert inflated["iou_depth"] > isolated["iou_depth"]
+    assert inflated["normal_error_mean_deg"] < isolated["normal_error_mean_deg"]
+
+
 def test_perfect_prediction_scores_perfectly():
     scene = _scene([[0.0, 0.0, 12.0], [1.0, 1.0, 16.0]], [1.0, 1.5])
-    g = evaluate.stack(raymarch.render_gbuffers(scene, 32))
+    g = raymarch.render_gbuffers(scene, 32).stack()
     m = evaluate.example_metrics(g, g)
     assert m["iou_depth"] == 1.0 and m["iou_normal"] == 1.0
     assert m["l1_colour"] == 0.0 and m["depth_error_world"] == 0.0
@@ -57,7 +80,7 @@ def test_binned_means():
 
 def test_shading_lambert_and_background():
     scene = _scene([[0.0, 0.0, 12.0]], [2.0])
-    g = evaluate.stack(raymarch.render_gbuffers(scene, 32))
+    g = raymarch.render_gbuffers(scene, 32).stack()
     lit = demo.shade(g)
     bg = ~evaluate.silhouette_depth(g)
     assert (lit[:, bg] == 0).all()

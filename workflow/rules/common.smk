@@ -112,7 +112,11 @@ def prt_experiment_tables():
 METABALL_SPLITS = ("train", "val", "test")
 
 
-METABALL_VARIANTS = ("pix2pix", "l1only")
+METABALL_VARIANTS = ("pix2pix", "l1only", "sphere_residual")
+
+
+# The thesis's network and ours: the demo animates and times both.
+METABALL_DEMO_VARIANTS = ("pix2pix", "sphere_residual")
 
 
 def metaballs_params():
@@ -120,10 +124,15 @@ def metaballs_params():
 
 
 def metaballs_model_params(wildcards):
-    """Data and model keys; the L1-only ablation is pix2pix with no GAN term."""
+    """Data and model keys. A training job gets its own variant's epochs only, so tuning one
+    variant never retrains another; only the thesis's pix2pix has a GAN term."""
     cfg = {"device": config["device"], **metaballs_params(), **config["metaballs_model"]}
-    if wildcards.get("variant") == "l1only":
-        cfg["gan_weight"] = 0.0
+    variant = wildcards.get("variant")
+    if variant is not None:
+        cfg["variant"] = variant
+        cfg["epochs"] = cfg["epochs"][variant]
+        if variant != "pix2pix":
+            cfg["gan_weight"] = 0.0
     return cfg
 
 

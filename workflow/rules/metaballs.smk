@@ -5,6 +5,7 @@ rule metaballs_examples:
     output:
         examples=directory("results/metaballs/{split}"),
         manifest="results/metaballs/{split}_manifest.csv",
+        balls="results/metaballs/{split}_balls.csv",
     params:
         cfg=metaballs_params(),
     log:
@@ -40,8 +41,10 @@ rule metaballs_train:
     input:
         train_dir="results/metaballs/train",
         train_manifest="results/metaballs/train_manifest.csv",
+        train_balls="results/metaballs/train_balls.csv",
         val_dir="results/metaballs/val",
         val_manifest="results/metaballs/val_manifest.csv",
+        val_balls="results/metaballs/val_balls.csv",
     output:
         checkpoint="results/metaballs/{variant}.pt",
         loss="results/metaballs/{variant}_loss.csv",
@@ -64,6 +67,7 @@ rule metaballs_evaluate:
     input:
         test_dir="results/metaballs/test",
         test_manifest="results/metaballs/test_manifest.csv",
+        test_balls="results/metaballs/test_balls.csv",
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALL_VARIANTS),
     output:
         metrics="results/metaballs/metrics.csv",
@@ -87,7 +91,7 @@ rule metaballs_evaluate:
 
 rule metaballs_demo:
     input:
-        checkpoint="results/metaballs/pix2pix.pt",
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALL_DEMO_VARIANTS),
     output:
         frames="results/metaballs/demo_frames.csv",
         timing="results/metaballs/timing.csv",
@@ -98,6 +102,7 @@ rule metaballs_demo:
         stability=report("results/metaballs/figures/temporal_stability.png", category="Metaballs"),
     params:
         cfg=metaballs_model_params,
+        variants=METABALL_DEMO_VARIANTS,
     log:
         "results/logs/metaballs_demo/metaballs_demo.log",
     benchmark:

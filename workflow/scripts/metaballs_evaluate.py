@@ -6,6 +6,7 @@ inp, out = snakemake.input, snakemake.output
 evaluate_models(
     inp.test_dir,
     inp.test_manifest,
+    inp.test_balls,
     dict(zip(snakemake.params.variants, inp.checkpoints, strict=True)),
     snakemake.params.cfg,
     snakemake.threads,

@@ -1,15 +1,18 @@
 """Metaball examples (thesis 4.1, 5.2): scenes, circle inputs and ray-marched targets as AB PNGs.
 
-Files: ``{split}/example_XXXXX.png`` (AB images, :mod:`neurender.metaballs.ab`) and
+Files: ``{split}/example_XXXXX.png`` (AB images, :mod:`neurender.metaballs.ab`),
 ``{split}_manifest.csv`` with one row per example: ``example, split, file, balls,
 min_depth_separation`` (smallest centre-depth gap between two balls whose projected
 circles overlap, world units; NaN if none overlap), ``coverage`` (fraction of pixels on
-the surface) and ``seconds`` (ray marching).
+the surface) and ``seconds`` (ray marching on one core), and ``{split}_balls.csv`` with one
+row per ball: ``example, ball, x, y, z`` (view space), ``radius, red, green, blue``.
 """
 
 from __future__ import annotations
 
 import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 from pathlib import Path
 
 import pandas as pd
@@ -42,39 +45,91 @@ def example_scene(cfg: dict, split: str, index: int) -> scenes.Scene:
     return scenes.sample_scene(count, tuple(cfg["radius"]), gen).to(torch.float32)
 
 
-def generate_split(split: str, cfg: dict, threads: int, out_dir: str, manifest: str) -> None:
-    """Write the AB examples of one split and their manifest.
+BALL_COLUMNS = ["example", "ball", "x", "y", "z", "radius", "red", "green", "blue"]
+
+
+def ball_rows(example: int, scene: scenes.Scene) -> list[dict]:
+    """One :data:`BALL_COLUMNS` row per ball of an example's scene."""
+    values = torch.cat([scene.centres, scene.radii[:, None], scene.colours], 1).double()
+    return [
+        {"example": example, "ball": b, **dict(zip(BALL_COLUMNS[2:], v, strict=True))}
+        for b, v in enumerate(values.tolist())
+    ]
+
+
+def read_scenes(path: str | Path) -> dict[int, scenes.Scene]:
+    """The float32 scene of every example in a ``{split}_balls.csv`` table."""
+    table = io.read_csv(path, BALL_COLUMNS)
+    out = {}
+    for example, rows in table.sort_values(["example", "ball"]).groupby("example"):
+        values = torch.tensor(rows[BALL_COLUMNS[2:]].to_numpy(), dtype=torch.float32)
+        out[int(example)] = scenes.Scene(values[:, :3], values[:, 3], values[:, 4:])
+    return out
+
+
+def make_example(cfg: dict, split: str, index: int, out_dir: Path) -> tuple[dict, list[dict]]:
+    """Ray-march one example, write its AB image; its manifest row and ball rows."""
+    width = cfg["width"]
+    scene = example_scene(cfg, split, index)
+    start = time.perf_counter()
+    buffers = raymarch.render_gbuffers(scene, width)
+    seconds = time.perf_counter() - start
+    image = ab.pack(inputs.draw_inputs(scene, width), buffers.colour, buffers.depth, buffers.normal)
+    file = out_dir / f"example_{index:05d}.png"
+    ab.write_ab(file, image)
+    row = {
+        "example": index,
+        "split": split,
+        "file": file.name,
+        "balls": len(scene),
+        "min_depth_separation": min_overlap_depth_gap(scene, width),
+        "coverage": float(buffers.mask.float().mean()),
+        "seconds": seconds,
+    }
+    return row, ball_rows(index, scene)
+
+
+def _single_threaded() -> None:
+    torch.set_num_threads(1)
+
+
+def _make_example(args: tuple[dict, str, int, Path]) -> tuple[dict, list[dict]]:
+    return make_example(*args)
+
+
+def generate_split(
+    split: str, cfg: dict, workers: int, out_dir: str, manifest: str, balls_csv: str
+) -> None:
+    """Write the AB examples of one split, their manifest and their balls.
+
+    Examples are ray-marched by ``workers`` forked single-threaded processes (small
+    per-ray tensors scale across processes, not across torch threads).
 
     Args:
         cfg: ``seed``, ``width``, ``examples`` (per split), ``balls`` [min, max],
             ``radius`` [min, max].
     """
-    torch.set_num_threads(threads)
-    width = cfg["width"]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for i in tqdm(range(cfg["examples"][split]), desc=f"metaballs {split}", mininterval=2.0):
-        scene = example_scene(cfg, split, i)
-        start = time.perf_counter()
-        buffers = raymarch.render_gbuffers(scene, width)
-        seconds = time.perf_counter() - start
-        image = ab.pack(
-            inputs.draw_inputs(scene, width), buffers.colour, buffers.depth, buffers.normal
+    jobs = [(cfg, split, i, out) for i in range(cfg["examples"][split])]
+    if workers > 1:
+        pool = ProcessPoolExecutor(
+            workers, mp_context=get_context("fork"), initializer=_single_threaded
         )
-        file = out / f"example_{i:05d}.png"
-        ab.write_ab(file, image)
-        rows.append(
-            {
-                "example": i,
-                "split": split,
-                "file": file.name,
-                "balls": len(scene),
-                "min_depth_separation": min_overlap_depth_gap(scene, width),
-                "coverage": float(buffers.mask.float().mean()),
-                "seconds": seconds,
-            }
-        )
+        results = pool.map(_make_example, jobs, chunksize=8)
+    else:
+        pool = None
+        _single_threaded()
+        results = map(_make_example, jobs)
+    rows, balls = [], []
+    try:
+        for row, ball in tqdm(results, total=len(jobs), desc=f"metaballs {split}", mininterval=5):
+            rows.append(row)
+            balls += ball
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    io.write_csv(balls_csv, pd.DataFrame(balls, columns=BALL_COLUMNS))
     io.write_csv(manifest, pd.DataFrame(rows))
 
 

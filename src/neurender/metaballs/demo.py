@@ -15,8 +15,8 @@ import pandas as pd
 import torch
 
 from neurender import io
-from neurender.metaballs import inputs, raymarch, scenes
-from neurender.metaballs.evaluate import silhouette_depth, stack
+from neurender.metaballs import raymarch, scenes
+from neurender.metaballs.evaluate import silhouette_depth
 from neurender.rng import torch_generator
 
 LIGHT_DIR = (-0.4, 0.6, -0.7)  # towards the light, view space
@@ -63,7 +63,7 @@ def _timed(fn, *args, repeats: int = 1):
 
 
 def run_demo(
-    renderer,
+    renderers: dict,
     cfg: dict,
     frames_out: str,
     timing_out: str,
@@ -73,10 +73,11 @@ def run_demo(
     strip_out: str,
     stability_out: str,
 ) -> None:
-    """Animated sequence rendered by the network and by ray marching, with timings.
+    """Animated sequence rendered by each network and by ray marching, with timings.
 
     Args:
-        renderer: callable ``(B, 4, W, W) -> (B, 7, W, W)`` in [0, 1] (the trained generator).
+        renderers: model name to a :class:`neurender.metaballs.model.MetaballRenderer`
+            (``inputs(scene)`` then ``renderer((B, C, W, W)) -> (B, 7, W, W)``).
     """
     from neurender.plots import plt, save_figure
 
@@ -86,27 +87,32 @@ def run_demo(
     base = scenes.sample_scene(cfg["demo_balls"], tuple(cfg["radius"]), gen, margin=3.0).to(
         torch.float32
     )
+    for r in renderers.values():  # warm-up: first calls allocate
+        r(r.inputs(base)[None])
     rows, pictures, silhouettes = [], [], []
-    renderer(inputs.draw_inputs(base, width).float()[None])  # warm-up: first calls allocate
     for f in range(count):
         scene = animated_scene(base, f, count)
-        circles, t_in = _timed(inputs.draw_inputs, scene, width)
-        net, t_net = _timed(renderer, circles.float()[None])
-        lit_net, t_shade = _timed(shade, net[0])
         truth, t_march = _timed(raymarch.render_gbuffers, scene, width)
-        truth = stack(truth)
-        lit_truth = shade(truth)
-        rows.append(
-            {
-                "frame": f,
-                "input_ms": 1e3 * t_in,
-                "network_ms": 1e3 * t_net,
-                "shading_ms": 1e3 * t_shade,
-                "raymarch_ms": 1e3 * t_march,
-            }
-        )
-        pictures.append(torch.cat([lit_net, lit_truth], 2))
-        silhouettes.append((silhouette_depth(net[0]), silhouette_depth(truth)))
+        truth = truth.stack()
+        lit, masks = [], []
+        for name, r in renderers.items():
+            x, t_in = _timed(r.inputs, scene)
+            net, t_net = _timed(r, x[None])
+            image, t_shade = _timed(shade, net[0])
+            lit.append(image)
+            masks.append(silhouette_depth(net[0]))
+            rows.append(
+                {
+                    "frame": f,
+                    "model": name,
+                    "input_ms": 1e3 * t_in,
+                    "network_ms": 1e3 * t_net,
+                    "shading_ms": 1e3 * t_shade,
+                    "raymarch_ms": 1e3 * t_march,
+                }
+            )
+        pictures.append(torch.cat([*lit, shade(truth)], 2))
+        silhouettes.append([*masks, silhouette_depth(truth)])
     timing = pd.DataFrame(rows)
     io.write_csv(frames_out, timing)
     frames_u8 = [io.to_uint8(p.permute(1, 2, 0).numpy()) for p in pictures]
@@ -115,18 +121,22 @@ def run_demo(
     io.write_png(strip_out, strip)
 
     # Temporal stability (thesis 7.2): fraction of pixels whose silhouette flips between frames.
-    flips = [
-        {
-            "frame": f,
-            "network": float((a[0] ^ b[0]).float().mean()),
-            "ray marching": float((a[1] ^ b[1]).float().mean()),
-        }
-        for f, (a, b) in enumerate(zip(silhouettes[:-1], silhouettes[1:], strict=True), start=1)
-    ]
-    flips = pd.DataFrame(flips)
+    names = [*renderers, "ray marching"]
+    flips = pd.DataFrame(
+        [
+            {
+                "frame": f,
+                **{
+                    n: float((a ^ b).float().mean())
+                    for n, a, b in zip(names, prev, cur, strict=True)
+                },
+            }
+            for f, (prev, cur) in enumerate(zip(silhouettes[:-1], silhouettes[1:], strict=True), 1)
+        ]
+    )
     fig, ax = plt.subplots(figsize=(5, 3))
-    ax.plot(flips.frame, flips["network"], "o-", label="network")
-    ax.plot(flips.frame, flips["ray marching"], "s--", label="ray marching")
+    for n in names:
+        ax.plot(flips.frame, flips[n], "s--" if n == "ray marching" else "o-", label=n)
     ax.set_xlabel("frame")
     ax.set_ylabel("silhouette pixels flipped since last frame")
     ax.legend(fontsize=8)
@@ -139,54 +149,62 @@ def run_demo(
         scene = scenes.sample_scene(
             n, tuple(cfg["radius"]), torch_generator(cfg["seed"], "timing", n)
         ).to(torch.float32)
-        circles, t_in = _timed(inputs.draw_inputs, scene, width, repeats=3)
-        _, t_net = _timed(renderer, circles.float()[None], repeats=3)
         _, t_march = _timed(raymarch.render_gbuffers, scene, width, repeats=3)
-        ball_rows.append(
-            {"balls": n, "network_ms": 1e3 * (t_in + t_net), "raymarch_ms": 1e3 * t_march}
-        )
+        ball_rows.append({"balls": n, "model": "ray marcher", "ms_per_frame": 1e3 * t_march})
+        for name, r in renderers.items():
+            x, t_in = _timed(r.inputs, scene, repeats=3)
+            _, t_net = _timed(r, x[None], repeats=3)
+            ball_rows.append({"balls": n, "model": name, "ms_per_frame": 1e3 * (t_in + t_net)})
     balls = pd.DataFrame(ball_rows)
     fig, ax = plt.subplots(figsize=(5, 3))
-    ax.semilogy(balls.balls, balls.network_ms, "o-", label="circles + network")
-    ax.semilogy(balls.balls, balls.raymarch_ms, "s--", label="ray marching")
+    for name, part in balls.groupby("model", sort=False):
+        label = name if name == "ray marcher" else f"{name}: inputs + network"
+        ax.semilogy(
+            part.balls, part.ms_per_frame, "s--" if name == "ray marcher" else "o-", label=label
+        )
     ax.set_xlabel("number of balls")
     ax.set_ylabel("ms per frame")
     ax.legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, balls_png)
 
-    summary = {
-        "input_ms_per_frame": timing.input_ms.mean(),
-        "network_ms_per_frame": timing.network_ms.mean(),
-        "shading_ms_per_frame": timing.shading_ms.mean(),
-        "raymarch_ms_per_frame": timing.raymarch_ms.mean(),
-        "silhouette_flips_network": flips["network"].mean(),
-        "silhouette_flips_raymarch": flips["ray marching"].mean(),
-    }
-    last = balls.iloc[-1]
-    summary[f"speedup_at_{int(last.balls)}_balls"] = last.raymarch_ms / last.network_ms
-    rows = [
-        {
-            "method": "metaballs",
-            "dataset": "demo",
-            "model": "pix2pix",
-            "split": "timing",
-            "metric": k,
-            "value": float(v),
+    most = max(cfg["timing_balls"])
+    march_ms = float(
+        balls[(balls.balls == most) & (balls.model == "ray marcher")].ms_per_frame.iloc[0]
+    )
+    rows = []
+    for name, part in timing.groupby("model", sort=False):
+        summary = {
+            "input_ms_per_frame": part.input_ms.mean(),
+            "network_ms_per_frame": part.network_ms.mean(),
+            "shading_ms_per_frame": part.shading_ms.mean(),
+            "raymarch_ms_per_frame": part.raymarch_ms.mean(),
+            "silhouette_flips": flips[name].mean(),
+            "silhouette_flips_raymarch": flips["ray marching"].mean(),
+            f"speedup_at_{most}_balls": march_ms
+            / float(balls[(balls.balls == most) & (balls.model == name)].ms_per_frame.iloc[0]),
         }
-        for k, v in summary.items()
-    ]
+        rows += [
+            {
+                "method": "metaballs",
+                "dataset": "demo",
+                "model": name,
+                "split": "timing",
+                "metric": k,
+                "value": float(v),
+            }
+            for k, v in summary.items()
+        ]
     rows += [
         {
             "method": "metaballs",
             "dataset": f"{int(r.balls)} balls",
-            "model": m,
+            "model": r.model,
             "split": "timing",
             "metric": "ms_per_frame",
-            "value": float(getattr(r, c)),
+            "value": float(r.ms_per_frame),
         }
         for r in balls.itertuples()
-        for m, c in (("pix2pix", "network_ms"), ("ray marcher", "raymarch_ms"))
     ]
     io.write_csv(timing_out, pd.DataFrame(rows))
     io.write_csv(balls_out, balls)

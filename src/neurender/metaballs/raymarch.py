@@ -38,6 +38,10 @@ class GBuffers:
     normal: torch.Tensor
     mask: torch.Tensor
 
+    def stack(self) -> torch.Tensor:
+        """``(7, W, W)`` float32: colour, depth, normal (the network's output layout)."""
+        return torch.cat([self.colour, self.depth, self.normal]).float()
+
 
 def field(points: torch.Tensor, scene: Scene) -> tuple[torch.Tensor, torch.Tensor]:
     """Field ``F`` ``(R,)`` at points ``(R, 3)`` and the distance to the nearest centre ``(R,)``."""

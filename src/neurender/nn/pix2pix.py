@@ -27,6 +27,7 @@ class UnetSkipConnectionBlock(nn.Module):
         outermost: bool = False,
         innermost: bool = False,
         use_dropout: bool = False,
+        output_tanh: bool = True,
     ):
         super().__init__()
         self.outermost = outermost
@@ -36,7 +37,9 @@ class UnetSkipConnectionBlock(nn.Module):
         uprelu = nn.ReLU(True)
         if outermost:
             upconv = nn.ConvTranspose2d(inner_nc * 2, outer_nc, 4, stride=2, padding=1)
-            model = [downconv, submodule, uprelu, upconv, nn.Tanh()]
+            model = [downconv, submodule, uprelu, upconv]
+            if output_tanh:
+                model.append(nn.Tanh())
         elif innermost:
             upconv = nn.ConvTranspose2d(inner_nc, outer_nc, 4, stride=2, padding=1, bias=False)
             model = [downrelu, downconv, uprelu, upconv, nn.BatchNorm2d(outer_nc)]
@@ -68,9 +71,13 @@ class UnetGenerator(nn.Module):
         input_nc, output_nc: channels in and out (4 and 7 for metaballs).
         num_downs: number of downsamplings (log2(W) for a 1x1 bottleneck).
         ngf: filters of the outermost level (doubling up to 8 ngf).
+        output_tanh: end with tanh (pix2pix); without it the output is unbounded, e.g. a
+            correction added to a prior.
     """
 
-    def __init__(self, input_nc: int, output_nc: int, num_downs: int, ngf: int = 64):
+    def __init__(
+        self, input_nc: int, output_nc: int, num_downs: int, ngf: int = 64, output_tanh: bool = True
+    ):
         super().__init__()
         if num_downs < 5:
             raise ValueError(f"num_downs={num_downs}: the pix2pix U-Net needs at least 5 levels")
@@ -81,12 +88,17 @@ class UnetGenerator(nn.Module):
         block = UnetSkipConnectionBlock(ngf * 2, ngf * 4, submodule=block)
         block = UnetSkipConnectionBlock(ngf, ngf * 2, submodule=block)
         self.model = UnetSkipConnectionBlock(
-            output_nc, ngf, input_nc=input_nc, submodule=block, outermost=True
+            output_nc,
+            ngf,
+            input_nc=input_nc,
+            submodule=block,
+            outermost=True,
+            output_tanh=output_tanh,
         )
         self.num_downs = num_downs
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """``(B, input_nc, H, W) -> (B, output_nc, H, W)`` in [-1, 1]."""
+        """``(B, input_nc, H, W) -> (B, output_nc, H, W)``, in [-1, 1] with ``output_tanh``."""
         factor = 2**self.num_downs
         if x.shape[-1] % factor or x.shape[-2] % factor:
             raise ValueError(f"input {tuple(x.shape)}: H and W must be divisible by {factor}")
