@@ -97,3 +97,25 @@ def test_animated_scene_keeps_radii_and_moves_balls():
     a, b = demo.animated_scene(scene, 0, 10), demo.animated_scene(scene, 3, 10)
     assert torch.equal(a.radii, scene.radii)
     assert (a.centres - b.centres).norm(dim=1).min() > 0.05
+
+
+def _dense_spheres(scene, width):
+    """Reference: every ray against every sphere, nearest hit."""
+    d = scenes.pixel_rays(width, scene.centres.dtype).reshape(-1, 3)
+    b = d @ scene.centres.T
+    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())
+    t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), torch.inf)
+    dist, ball = torch.where(t > 0, t, torch.inf).min(1)
+    hit = torch.isfinite(dist)
+    normal = (d[hit] * dist[hit, None] - scene.centres[ball[hit]]) / scene.radii[ball[hit], None]
+    return hit.reshape(width, width), scenes.normalised_depth(dist[hit]), (normal + 1) / 2
+
+
+def test_rasterised_spheres_equal_every_ray_against_every_sphere():
+    # big balls near the image edges: their exact screen bounds matter
+    scene = scenes.sample_scene(30, (1.0, 3.0), torch.Generator().manual_seed(7))
+    g = inputs.draw_spheres(scene, 64)
+    hit, depth, normal = _dense_spheres(scene, 64)
+    assert torch.equal(g.mask, hit) and hit.any() and (~hit).any()
+    torch.testing.assert_close(g.depth[0][hit], depth)
+    torch.testing.assert_close(g.normal[:, hit].T, normal)

@@ -149,11 +149,11 @@ def run_demo(
         scene = scenes.sample_scene(
             n, tuple(cfg["radius"]), torch_generator(cfg["seed"], "timing", n)
         ).to(torch.float32)
-        _, t_march = _timed(raymarch.render_gbuffers, scene, width, repeats=3)
+        _, t_march = _timed(raymarch.render_gbuffers, scene, width, repeats=5)
         ball_rows.append({"balls": n, "model": "ray marcher", "ms_per_frame": 1e3 * t_march})
         for name, r in renderers.items():
-            x, t_in = _timed(r.inputs, scene, repeats=3)
-            _, t_net = _timed(r, x[None], repeats=3)
+            x, t_in = _timed(r.inputs, scene, repeats=5)
+            _, t_net = _timed(r, x[None], repeats=5)
             ball_rows.append({"balls": n, "model": name, "ms_per_frame": 1e3 * (t_in + t_net)})
     balls = pd.DataFrame(ball_rows)
     fig, ax = plt.subplots(figsize=(5, 3))

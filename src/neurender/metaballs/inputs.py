@@ -39,26 +39,78 @@ def projected_radius(scene: Scene, width: int) -> torch.Tensor:
     return scene.radii / scene.centres[:, 2] / math.tan(math.radians(FOV_DEG)) * width / 2
 
 
+def _footprint_pairs(boxes: torch.Tensor, width: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """The (ball, pixel) pairs of each ball's screen rectangle, as a rasteriser visits them.
+
+    Args:
+        boxes: ``(B, 4)`` continuous pixel bounds ``x0, y0, x1, y1`` (column, row).
+
+    Returns:
+        ``ball (P,)`` and flat pixel index ``row * W + column (P,)`` of every pixel whose
+        centre can lie inside (a conservative superset).
+    """
+    lo = boxes[:, :2].floor().clamp(0, width).long()
+    hi = (boxes[:, 2:].ceil() + 1).clamp(0, width).long()
+    size = (hi - lo).clamp(min=0)  # (B, 2) columns, rows
+    counts = size[:, 0] * size[:, 1]
+    ball = torch.repeat_interleave(torch.arange(len(boxes)), counts)
+    start = torch.cumsum(counts, 0) - counts
+    local = torch.arange(int(counts.sum())) - start[ball]
+    cols = size[ball, 0]
+    return ball, (lo[ball, 1] + local // cols) * width + lo[ball, 0] + local % cols
+
+
+def _nearest(ball: torch.Tensor, pixel: torch.Tensor, key: torch.Tensor, width: int):
+    """Depth test: per pixel the smallest ``key`` of its pairs (``inf`` where none) and a
+    boolean ``(P,)`` marking each pixel's winning pair."""
+    nearest = torch.full((width * width,), math.inf, dtype=key.dtype)
+    nearest = nearest.scatter_reduce(0, pixel, key, "amin")
+    return nearest, torch.isfinite(key) & (key == nearest[pixel])
+
+
 def draw_inputs(scene: Scene, width: int) -> torch.Tensor:
     """The ``(4, W, W)`` circle image (RGB colour, A centre depth), values in [0, 1].
 
-    Vectorised as a depth test: each pixel shows the nearest ball whose ring covers it,
-    which is what drawing far to near gives.
+    Rasterised like the thesis's billboards (only the pixels of each ball's square), with a
+    depth test instead of drawing far to near; the result is the same.
     """
     dtype = scene.centres.dtype
-    centre_px = project(scene.centres, width)  # (B, 2) column, row
-    radius_px = projected_radius(scene, width)[:, None, None]
+    centre = project(scene.centres, width)  # (B, 2) column, row
+    radius = projected_radius(scene, width)
     depth = normalised_depth(scene.centres.norm(dim=1))
-    coords = torch.arange(width, dtype=dtype) + 0.5
+    ball, pixel = _footprint_pairs(
+        torch.cat([centre - radius[:, None], centre + radius[:, None]], 1), width
+    )
     dist = torch.hypot(
-        coords[None, None, :] - centre_px[:, 0, None, None],
-        coords[None, :, None] - centre_px[:, 1, None, None],
-    )  # (B, W, W)
-    ring = (dist > 0.9 * radius_px) & (dist < radius_px)
-    nearest, ball = torch.where(ring, depth[:, None, None], math.inf).min(0)
-    hit = torch.isfinite(nearest)
-    colour = torch.where(hit, scene.colours[ball].permute(2, 0, 1), 0.0)
-    return torch.cat([colour, torch.where(hit, nearest, 1.0)[None]]).to(dtype)
+        (pixel % width).to(dtype) + 0.5 - centre[ball, 0],
+        (pixel // width).to(dtype) + 0.5 - centre[ball, 1],
+    )
+    ring = (dist > 0.9 * radius[ball]) & (dist < radius[ball])
+    nearest, won = _nearest(ball, pixel, torch.where(ring, depth[ball], math.inf), width)
+    image = torch.zeros(4, width * width, dtype=dtype)
+    image[:3, pixel[won]] = scene.colours[ball[won]].T
+    image[3] = torch.where(torch.isfinite(nearest), nearest, 1.0)
+    return image.reshape(4, width, width)
+
+
+def _sphere_boxes(centres: torch.Tensor, radii: torch.Tensor, width: int) -> torch.Tensor:
+    """``(B, 4)`` exact pixel bounds of each sphere's image (spheres in front of the camera).
+
+    The planes ``x = u z`` through the camera tangent to a sphere satisfy
+    ``(c_x - u c_z)^2 = r^2 (1 + u^2)``, whose roots bound ``x / z`` on it; likewise ``y / z``.
+    """
+    cz, r2 = centres[:, 2], radii.square()
+    denom = cz.square() - r2
+    bounds = []
+    for axis in (0, 1):
+        c = centres[:, axis]
+        half = radii * (c.square() + denom).sqrt()
+        bounds.append(((c * cz - half) / denom, (c * cz + half) / denom))
+    (u0, u1), (v0, v1) = bounds
+    tan = math.tan(math.radians(FOV_DEG))
+    cols = (torch.stack([u0, u1], 1) / tan + 1) / 2 * width
+    rows = (1 - torch.stack([v1, v0], 1) / tan) / 2 * width  # image rows grow downwards
+    return torch.stack([cols[:, 0], rows[:, 0], cols[:, 1], rows[:, 1]], 1)
 
 
 def draw_spheres(scene: Scene, width: int) -> GBuffers:
@@ -66,25 +118,29 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
 
     For an isolated ball this is exactly its metaball surface (``r^2 / d^2 = 1`` at
     ``d = r``); colour is the ball's own, normal the sphere's (encoded ``(n + 1) / 2``).
+    Rasterised per ball over its screen rectangle (a sphere impostor).
     """
-    d = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3)
-    b = d @ scene.centres.T  # (R, B)
-    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())
+    dtype = scene.centres.dtype
+    ball, pixel = _footprint_pairs(_sphere_boxes(scene.centres, scene.radii, width), width)
+    rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3)
+    # |c|^2 - r^2 and the ray-centre projections b per ball: the per-pair work is gathers.
+    b = (rays @ scene.centres.T).reshape(-1)[pixel * len(scene) + ball]
+    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())[ball]
     t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), math.inf)
-    t = torch.where(t > 0, t, math.inf)
-    dist, ball = t.min(1)
+    dist, won = _nearest(ball, pixel, torch.where(t > 0, t, math.inf), width)
+    hit, ball = pixel[won], ball[won]
+    colour = torch.zeros(3, width * width, dtype=dtype)
+    normal = torch.zeros_like(colour)
+    colour[:, hit] = scene.colours[ball].T
+    points = rays[hit] * dist[hit, None]
+    normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
     mask = torch.isfinite(dist)
-    colour = torch.zeros_like(d)
-    normal = torch.zeros_like(d)
-    colour[mask] = scene.colours[ball[mask]]
-    p = d[mask] * dist[mask, None]
-    normal[mask] = ((p - scene.centres[ball[mask]]) / scene.radii[ball[mask], None] + 1) / 2
     depth = torch.where(mask, normalised_depth(dist.nan_to_num(posinf=MAX_DEPTH)), 1.0)
     shape = (width, width)
     return GBuffers(
-        colour.T.reshape(3, *shape),
+        colour.reshape(3, *shape),
         depth.reshape(1, *shape),
-        normal.T.reshape(3, *shape),
+        normal.reshape(3, *shape),
         mask.reshape(shape),
     )
 
