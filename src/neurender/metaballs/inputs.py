@@ -53,9 +53,9 @@ def _footprint_pairs(boxes: torch.Tensor, width: int) -> tuple[torch.Tensor, tor
     hi = (boxes[:, 2:].ceil() + 1).clamp(0, width).long()
     size = (hi - lo).clamp(min=0)  # (B, 2) columns, rows
     counts = size[:, 0] * size[:, 1]
-    ball = torch.repeat_interleave(torch.arange(len(boxes)), counts)
+    ball = torch.repeat_interleave(torch.arange(len(boxes), device=boxes.device), counts)
     start = torch.cumsum(counts, 0) - counts
-    local = torch.arange(int(counts.sum())) - start[ball]
+    local = torch.arange(int(counts.sum()), device=boxes.device) - start[ball]
     cols = size[ball, 0]
     return ball, (lo[ball, 1] + local // cols) * width + lo[ball, 0] + local % cols
 
@@ -63,7 +63,7 @@ def _footprint_pairs(boxes: torch.Tensor, width: int) -> tuple[torch.Tensor, tor
 def _nearest(ball: torch.Tensor, pixel: torch.Tensor, key: torch.Tensor, width: int):
     """Depth test: per pixel the smallest ``key`` of its pairs (``inf`` where none) and a
     boolean ``(P,)`` marking each pixel's winning pair."""
-    nearest = torch.full((width * width,), math.inf, dtype=key.dtype)
+    nearest = torch.full((width * width,), math.inf, dtype=key.dtype, device=key.device)
     nearest = nearest.scatter_reduce(0, pixel, key, "amin")
     return nearest, torch.isfinite(key) & (key == nearest[pixel])
 
@@ -87,7 +87,7 @@ def draw_inputs(scene: Scene, width: int) -> torch.Tensor:
     )
     ring = (dist > 0.9 * radius[ball]) & (dist < radius[ball])
     nearest, won = _nearest(ball, pixel, torch.where(ring, depth[ball], math.inf), width)
-    image = torch.zeros(4, width * width, dtype=dtype)
+    image = torch.zeros(4, width * width, dtype=dtype, device=scene.centres.device)
     image[:3, pixel[won]] = scene.colours[ball[won]].T
     image[3] = torch.where(torch.isfinite(nearest), nearest, 1.0)
     return image.reshape(4, width, width)
@@ -129,7 +129,7 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), math.inf)
     dist, won = _nearest(ball, pixel, torch.where(t > 0, t, math.inf), width)
     hit, ball = pixel[won], ball[won]
-    colour = torch.zeros(3, width * width, dtype=dtype)
+    colour = torch.zeros(3, width * width, dtype=dtype, device=scene.centres.device)
     normal = torch.zeros_like(colour)
     colour[:, hit] = scene.colours[ball].T
     points = rays[hit] * dist[hit, None]

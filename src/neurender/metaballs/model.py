@@ -260,8 +260,12 @@ class MetaballRenderer:
                     module.train()
 
     def inputs(self, scene: Scene, circles: torch.Tensor | None = None) -> torch.Tensor:
-        """The ``(C, W, W)`` input in [0, 1] (see :func:`network_inputs`)."""
-        return network_inputs(scene, self.width, self.variant, circles)
+        """The ``(C, W, W)`` input in [0, 1] (see :func:`network_inputs`), drawn on the
+        renderer's device (on a GPU, drawing on the CPU would cost more than the network)."""
+        on_device = Scene(*(t.to(self.device) for t in (scene.centres, scene.radii, scene.colours)))
+        if circles is not None:
+            circles = circles.to(self.device)
+        return network_inputs(on_device, self.width, self.variant, circles)
 
     @torch.no_grad()
     def __call__(self, x: torch.Tensor) -> torch.Tensor:
