@@ -46,13 +46,17 @@ def uses_spheres(variant: str) -> bool:
 
 
 def input_channels(variant: str) -> int:
+    """Channels of a variant's input: 4 circle channels, plus 7 impostor channels."""
     return CIRCLE_CHANNELS + (OUTPUT_CHANNELS if uses_spheres(variant) else 0)
 
 
-def network_inputs(scene: Scene, width: int, variant: str, circles: torch.Tensor | None = None):
+def network_inputs(
+    scene: Scene | None, width: int, variant: str, circles: torch.Tensor | None = None
+) -> torch.Tensor:
     """A variant's input ``(C, W, W)`` in [0, 1] for a scene.
 
     Args:
+        scene: the balls; only needed to draw what ``circles`` does not give.
         circles: the ``(4, W, W)`` circle image when already drawn (e.g. read from an AB
             image); drawn from the scene otherwise.
     """
