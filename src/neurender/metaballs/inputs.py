@@ -107,10 +107,10 @@ def _sphere_boxes(centres: torch.Tensor, radii: torch.Tensor, width: int) -> tor
         half = radii * (c.square() + denom).sqrt()
         bounds.append(((c * cz - half) / denom, (c * cz + half) / denom))
     (u0, u1), (v0, v1) = bounds
-    tan = math.tan(math.radians(FOV_DEG))
-    cols = (torch.stack([u0, u1], 1) / tan + 1) / 2 * width
-    rows = (1 - torch.stack([v1, v0], 1) / tan) / 2 * width  # image rows grow downwards
-    return torch.stack([cols[:, 0], rows[:, 0], cols[:, 1], rows[:, 1]], 1)
+    # Corners (u0, v1) and (u1, v0) on the plane z = 1: top-left and bottom-right in pixels.
+    ones = torch.ones_like(u0)
+    corners = torch.stack([torch.stack([u0, v1, ones], 1), torch.stack([u1, v0, ones], 1)], 1)
+    return project(corners.reshape(-1, 3), width).reshape(-1, 4)
 
 
 def draw_spheres(scene: Scene, width: int) -> GBuffers:

@@ -28,6 +28,7 @@ from torch.utils.data import Dataset
 from neurender import io, train
 from neurender.metaballs import ab, inputs
 from neurender.metaballs.data import read_scenes
+from neurender.metaballs.evaluate import NORMAL_FOREGROUND
 from neurender.metaballs.scenes import Scene
 from neurender.nn.pix2pix import NLayerDiscriminator, UnetGenerator, init_weights
 
@@ -77,7 +78,7 @@ def flip(x: torch.Tensor, y: torch.Tensor, horizontal: bool, vertical: bool, sph
     """
 
     def mirror_normals(normal: torch.Tensor, axis: int) -> torch.Tensor:
-        foreground = (normal + 1).sum(0) > 2 * 0.3  # encoded sum above 0.3, as evaluate
+        foreground = (normal + 1).sum(0) / 2 > NORMAL_FOREGROUND  # on encoded normals
         out = normal.clone()
         out[axis] = torch.where(foreground, -normal[axis], normal[axis])
         return out
