@@ -89,8 +89,23 @@ def prt_split_inputs(wildcards):
     return inputs
 
 
+PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule", "residual_targets")
+
+
+def prt_train_params():
+    """What a DeepPRT training job reads, so an edit of an evaluation key never retrains."""
+    model = config["prt_model"]
+    return {"device": config["device"], **prt_subset("n_bands"), **{k: model[k] for k in PRT_TRAIN_KEYS}}
+
+
+def prt_momoprt_params():
+    """What a MoMoPRT fit reads."""
+    model = config["prt_model"]
+    return {**prt_subset("n_bands"), **{k: model[k] for k in ("pca_components", "ridges")}}
+
+
 def prt_model_params():
-    """What the model rules depend on: the model subtree and the data keys they read."""
+    """What the evaluation rules depend on: the model subtree and the data keys they read."""
     data_keys = ("n_bands", "directions", "reference_directions", "direction_sets", "ray_offset")
     data_keys += ("noise_floor_frames", "resolution", "frames")
     return {"device": config["device"], **prt_subset(*data_keys), **config["prt_model"]}

@@ -10,7 +10,7 @@ rule prt_train:
         weights="results/prt/{object}/deepprt_{material}_weights.pt",
         loss="results/prt/{object}/deepprt_{material}_loss.csv",
     params:
-        cfg=prt_model_params(),
+        cfg=prt_train_params(),
     log:
         "results/logs/prt_train/{object}_{material}.log",
     benchmark:
@@ -30,7 +30,7 @@ rule prt_momoprt:
     output:
         model="results/prt/{object}/momoprt_{material}.npz",
     params:
-        cfg=prt_model_params(),
+        cfg=prt_momoprt_params(),
     log:
         "results/logs/prt_momoprt/{object}_{material}.log",
     benchmark:
