@@ -98,6 +98,13 @@ def prt_train_params():
     return {"device": config["device"], **prt_subset("n_bands"), **{k: model[k] for k in PRT_TRAIN_KEYS}}
 
 
+def prt_train_priority(wildcards):
+    """The object networks first, the shorter experiment networks after them and the
+    seconds-long MoMoPRT fits (priority 0) in the gaps, so the two single-thread training
+    jobs keep both cores busy until the last one ends."""
+    return 1 if wildcards.object in PRT_EXPERIMENTS else 2
+
+
 def prt_momoprt_params():
     """What a MoMoPRT fit reads."""
     model = config["prt_model"]

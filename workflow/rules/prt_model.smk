@@ -16,6 +16,7 @@ rule prt_train:
     benchmark:
         "results/benchmarks/prt_train/{object}_{material}.tsv"
     threads: config["prt_model"]["threads"]
+    priority: prt_train_priority
     resources:
         gpu=1,
     conda:

@@ -192,9 +192,11 @@ def timing_rows(
 ) -> pd.DataFrame:
     """Inference vs ray-tracing time, and the equal-quality speed ratio.
 
-    The equal-quality ratio compares the network's time with that of the cheapest ray-traced
-    ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse
-    SSIM against the clean reference reaches the network's, on the first test frames.
+    The network's time is the median of 21 predictions of one frame (inputs, network and
+    decoding), with the network prepared as a renderer would ship it. The equal-quality
+    ratio compares it with the time of the cheapest ray-traced ground truth (direction
+    counts from ``equal_quality_directions``) whose mean diffuse SSIM against the clean
+    reference reaches the network's, on the first test frames.
     """
     positions = test.positions
     n = positions.shape[1]
