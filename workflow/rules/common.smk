@@ -62,7 +62,11 @@ def report_figures():
     objects = config["prt"]["objects"]
     frames = expand("results/prt/figures/{object}_{kind}.png", object=objects, kind=("prediction", "frames"))
     experiments = expand("results/prt/figures/{experiment}.png", experiment=PRT_EXPERIMENTS)
-    fixed = ["results/prt/figures/loss_curves.png", "results/prt/figures/light_probes.png"]
+    fixed = [
+        "results/prt/figures/loss_curves.png",
+        "results/prt/figures/equal_quality.png",
+        "results/prt/figures/light_probes.png",
+    ]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
     return frames + experiments + fixed + ndr_figures() + metaballs_figures() + simplify_figures()

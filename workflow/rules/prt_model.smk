@@ -91,6 +91,7 @@ rule prt_model_summary:
         compression="results/prt/compression.csv",
         targets="results/prt/targets.csv",
         loss=report("results/prt/figures/loss_curves.png", category="DeepPRT"),
+        equal_quality=report("results/prt/figures/equal_quality.png", category="DeepPRT"),
     params:
         cfg=prt_model_params(),
         objects=config["prt"]["objects"],

@@ -20,4 +20,5 @@ summarise_models(
     snakemake.output.compression,
     snakemake.output.targets,
     snakemake.output.loss,
+    snakemake.output.equal_quality,
 )

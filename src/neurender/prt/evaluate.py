@@ -438,6 +438,56 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
     save_figure(fig, out)
 
 
+def equal_quality_figure(table: pd.DataFrame, out: str) -> None:
+    """SSIM against the clean reference vs milliseconds per frame: the ray-traced estimates
+    of every direction count (a curve per object) and the network (a star), both measured
+    on the first test frames; the equal-quality ratio is the horizontal gap."""
+    timing = table[table.split == "timing"]
+    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    lowest = 1.0
+    for i, (name, rows) in enumerate(timing.groupby("dataset", sort=True)):
+        value = rows.set_index("metric")["value"]
+        counts = sorted(
+            int(m[len("gt_ssim_") : -len("_dirs")])
+            for m in value.index
+            if m.startswith("gt_ssim_") and m.endswith("_dirs")
+        )
+        ms = [1000 * value[f"gt_seconds_per_frame_{c}_dirs"] for c in counts]
+        ssims = [value[f"gt_ssim_{c}_dirs"] for c in counts]
+        target = value["equal_quality_ssim_target"]
+        lowest = min(lowest, target)
+        colour = f"C{i}"
+        ax.plot(ms, ssims, "o-", ms=3, color=colour, label=f"{name}: ray traced")
+        for c, x, y in zip(counts, ms, ssims, strict=True):
+            ax.annotate(
+                str(c),
+                (x, y),
+                fontsize=6,
+                color=colour,
+                xytext=(3, -9 - 7 * i),
+                textcoords="offset points",
+            )
+        ax.plot(
+            [value["inference_ms_per_frame"]],
+            [target],
+            "*",
+            ms=12,
+            color=colour,
+            label=f"{name}: DeepPRT, {value['equal_quality_speedup']:.1f}x at equal SSIM",
+        )
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(plt.ScalarFormatter())
+    ax.xaxis.set_minor_formatter(plt.NullFormatter())
+    ax.set_xticks([5, 10, 20, 50, 100, 200, 500])
+    ax.set_ylim(max(0.0, lowest - 0.1), 1.0)
+    ax.set_xlabel("milliseconds per frame (same machine and threads)")
+    ax.set_ylabel("diffuse SSIM vs clean reference")
+    ax.set_title("Equal quality: network vs ray-traced transfer (labels: directions)")
+    ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
 def summarise_models(
     objects,
     metrics_csvs,
@@ -451,8 +501,10 @@ def summarise_models(
     compression_out,
     targets_out,
     loss_png,
+    equal_quality_png,
 ) -> None:
-    """Collect per-object results into the report's DeepPRT tables and the loss figure."""
+    """Collect per-object results into the report's DeepPRT tables, the loss figure and the
+    equal-quality figure."""
     table = pd.concat([io.read_csv(p) for p in metrics_csvs], ignore_index=True)
     experiments = [io.read_csv(p) for p in experiment_csvs]
     io.write_csv(metrics_out, table)
@@ -466,6 +518,7 @@ def summarise_models(
     targets = [target_rows(table, 0.97, 20.0)] + [experiment_target_rows(e) for e in experiments]
     io.write_csv(targets_out, pd.concat(targets, ignore_index=True))
     loss_figure(loss_csvs, loss_png)
+    equal_quality_figure(table, equal_quality_png)
 
 
 def evaluate_experiment(
