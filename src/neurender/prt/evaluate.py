@@ -438,20 +438,16 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
     save_figure(fig, out)
 
 
-def equal_quality_figure(table: pd.DataFrame, out: str) -> None:
+def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -> None:
     """SSIM against the clean reference vs milliseconds per frame: the ray-traced estimates
-    of every direction count (a curve per object) and the network (a star), both measured
-    on the first test frames; the equal-quality ratio is the horizontal gap."""
+    of every count in ``directions`` (a curve per object) and the network (a star), both
+    measured on the first test frames; the equal-quality ratio is the horizontal gap."""
     timing = table[table.split == "timing"]
     fig, ax = plt.subplots(figsize=(6.5, 3.8))
     lowest, span = 1.0, []
     for i, (name, rows) in enumerate(timing.groupby("dataset", sort=True)):
         value = rows.set_index("metric")["value"]
-        counts = sorted(
-            int(m[len("gt_ssim_") : -len("_dirs")])
-            for m in value.index
-            if m.startswith("gt_ssim_") and m.endswith("_dirs")
-        )
+        counts = sorted(directions)
         ms = [1000 * value[f"gt_seconds_per_frame_{c}_dirs"] for c in counts]
         ssims = [value[f"gt_ssim_{c}_dirs"] for c in counts]
         target = value["equal_quality_ssim_target"]
@@ -525,7 +521,7 @@ def summarise_models(
     targets = [target_rows(table, 0.97, 20.0)] + [experiment_target_rows(e) for e in experiments]
     io.write_csv(targets_out, pd.concat(targets, ignore_index=True))
     loss_figure(loss_csvs, loss_png)
-    equal_quality_figure(table, equal_quality_png)
+    equal_quality_figure(table, cfg["equal_quality_directions"], equal_quality_png)
 
 
 def evaluate_experiment(
