@@ -4,7 +4,12 @@ from neurender.simplify.evaluate import evaluate_cases
 
 log_to_file(snakemake.log[0])
 cfg = snakemake.params.cfg
-mi, _ = require_mitsuba(cfg["device"])
+mi, dr = require_mitsuba(cfg["device"])
 evaluate_cases(
-    mi, snakemake.params.cases, cfg, dict(snakemake.input.items()), dict(snakemake.output.items())
+    mi,
+    dr,
+    snakemake.params.cases,
+    cfg,
+    dict(snakemake.input.items()),
+    dict(snakemake.output.items()),
 )

@@ -15,6 +15,8 @@ import numpy as np
 import xatlas
 from skimage.measure import marching_cubes
 
+from neurender.prt.geometry_image import vertex_normals
+
 
 @dataclasses.dataclass
 class LowPolyMesh:
@@ -29,6 +31,14 @@ class LowPolyMesh:
 
     def atlas_positions(self, positions: np.ndarray | None = None) -> np.ndarray:
         return (self.positions if positions is None else positions)[self.vmap]
+
+    def atlas_normals(self, positions: np.ndarray | None = None) -> np.ndarray:
+        """``(A, 3)`` area-weighted unit normals of the welded mesh at the atlas vertices.
+
+        The normals must come from the welded mesh: the atlas mesh's own vertex normals
+        would see only one chart's triangles at a seam and split the shading there."""
+        welded = self.positions if positions is None else positions
+        return vertex_normals(welded, self.faces)[self.vmap]
 
 
 def decimate(vertices: np.ndarray, faces: np.ndarray, target_faces: int) -> tuple:

@@ -1,7 +1,8 @@
 """Appearance-driven optimisation of a low-poly mesh and its textures (paper 3, 5.3).
 
 Each step renders the latent mesh with Mitsuba's ``direct_projective`` integrator (correct
-silhouette gradients) from one training view, compares it with the reference image of that
+silhouette gradients; with the shadow-terminator fix of :mod:`neurender.simplify.terminator`,
+as the evaluation renders it) from one training view, compares it with the reference image of that
 view through the L1 loss on ``sRGB(log(x + 1))`` (eq. 4) and adds the uniform Laplacian
 regulariser ``mean |delta_i - delta'_i|^2`` (eq. 5) with the decaying weight of eq. 6;
 Adam updates the welded vertex positions, the normal map and (optionally) the albedo map.
@@ -20,9 +21,10 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from neurender.simplify import terminator
 from neurender.simplify.cameras import View
 from neurender.simplify.mesh_ops import LowPolyMesh
-from neurender.simplify.render import material, mesh_shape, scene_dict, set_view
+from neurender.simplify.render import atlas_shape, material, scene_dict, set_view
 
 NORMAL_KEY = "shape.bsdf.normalmap.data"
 ALBEDO_KEY = "shape.bsdf.nested_bsdf.reflectance.data"
@@ -146,18 +148,27 @@ def optimise(
     """
     if len(references) != len(views):
         raise ValueError(f"{len(references)} reference images for {len(views)} views")
-    shape = mesh_shape(
-        mi, low.atlas_positions(), low.uv_faces, material(mi, albedo, normal_map), low.uvs
-    )
+    shape = atlas_shape(mi, low, material(mi, albedo, normal_map))
+    terminator.register(mi, dr)
     integrator = {
-        "type": "direct_projective",
+        "type": terminator.INTEGRATOR,
         "sppc": cfg.spp,
         "sppp": cfg.spp,
         "sppi": 0,
         "guiding": "none",
     }
     scene = mi.load_dict(
-        scene_dict(mi, shape, views[0], cfg.width, cfg.spp, cfg.intensity, integrator, alpha=False)
+        scene_dict(
+            mi,
+            shape,
+            views[0],
+            cfg.width,
+            cfg.spp,
+            cfg.intensity,
+            integrator,
+            alpha=False,
+            sample_border=True,
+        )
     )
     params = mi.traverse(scene)
     latent = LatentMesh(mi, dr, low)

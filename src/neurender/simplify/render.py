@@ -17,6 +17,7 @@ from tqdm import tqdm
 
 from neurender.prt.geometry_image import vertex_normals
 from neurender.simplify.cameras import View
+from neurender.simplify.mesh_ops import LowPolyMesh
 
 
 def bitmap(mi: ModuleType, data: np.ndarray) -> dict:
@@ -49,11 +50,12 @@ def mesh_shape(
     faces: np.ndarray,
     bsdf: dict,
     uvs: np.ndarray | None = None,
+    normals: np.ndarray | None = None,
     name: str = "mesh",
 ):
-    """A Mitsuba mesh from ``(V, 3)`` positions, ``(F, 3)`` faces and optional ``(V, 2)`` UVs;
-    vertex normals are the area-weighted ones of
-    :func:`neurender.prt.geometry_image.vertex_normals`."""
+    """A Mitsuba mesh from ``(V, 3)`` positions, ``(F, 3)`` faces, optional ``(V, 2)`` UVs
+    and ``(V, 3)`` unit vertex normals (default: the area-weighted ones of
+    :func:`neurender.prt.geometry_image.vertex_normals` of this mesh)."""
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf)
     mesh = mi.Mesh(
@@ -67,11 +69,26 @@ def mesh_shape(
     params = mi.traverse(mesh)
     params["vertex_positions"] = np.ravel(positions).astype(np.float32)
     params["faces"] = np.ravel(faces).astype(np.uint32)
-    params["vertex_normals"] = np.ravel(vertex_normals(positions, faces)).astype(np.float32)
+    if normals is None:
+        normals = vertex_normals(positions, faces)
+    params["vertex_normals"] = np.ravel(normals).astype(np.float32)
     if uvs is not None:
         params["vertex_texcoords"] = np.ravel(uvs).astype(np.float32)
     params.update()
     return mesh
+
+
+def atlas_shape(mi: ModuleType, low: LowPolyMesh, bsdf: dict, positions: np.ndarray | None = None):
+    """The atlas mesh of ``low`` (welded ``positions (V, 3)``, default its own) with smooth
+    normals across UV seams (:meth:`LowPolyMesh.atlas_normals`)."""
+    return mesh_shape(
+        mi,
+        low.atlas_positions(positions),
+        low.uv_faces,
+        bsdf,
+        low.uvs,
+        low.atlas_normals(positions),
+    )
 
 
 def look_at(mi: ModuleType, view: View):
@@ -87,8 +104,11 @@ def scene_dict(
     intensity: float,
     integrator: dict | None = None,
     alpha: bool = True,
+    sample_border: bool = False,
 ) -> dict:
-    """Scene of one shape, a perspective sensor and a point light of radiant ``intensity``."""
+    """Scene of one shape, a perspective sensor and a point light of radiant ``intensity``;
+    ``integrator`` defaults to Mitsuba's ``direct``, and ``sample_border`` lets samples fall
+    just outside the film (the projective integrator needs them for silhouettes)."""
     return {
         "type": "scene",
         "integrator": integrator or {"type": "direct"},
@@ -102,8 +122,7 @@ def scene_dict(
                 "height": width,
                 "rfilter": {"type": "box"},
                 "pixel_format": "rgba" if alpha else "rgb",
-                # The projective integrator samples silhouettes just outside the film.
-                "sample_border": integrator is not None,
+                "sample_border": sample_border,
             },
             "sampler": {"type": "independent", "sample_count": spp},
         },
@@ -127,9 +146,10 @@ def render_views(
     intensity: float,
     seed: int,
     desc: str = "render",
+    integrator: dict | None = None,
 ) -> np.ndarray:
     """Render ``shape`` from every view: ``(N, W, W, 4)`` float32 RGBA (alpha = coverage)."""
-    scene = mi.load_dict(scene_dict(mi, shape, views[0], width, spp, intensity))
+    scene = mi.load_dict(scene_dict(mi, shape, views[0], width, spp, intensity, integrator))
     params = mi.traverse(scene)
     images = []
     for i, view in enumerate(tqdm(views, desc=desc, mininterval=5)):
