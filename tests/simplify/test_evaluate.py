@@ -45,9 +45,13 @@ def test_targets_compare_ours_with_both_baselines():
     loss = pd.DataFrame(
         {"case": "head", "step": [0, 1], "metric": "seconds", "value": [30.0, 30.0]}
     )
-    stats = evaluate.with_timings(stats, [loss], 30.0).set_index("quantity")["value"]
-    assert stats["optimise_seconds"] == 60 and stats["stage_seconds"] == 150
+    two = evaluate.with_timings(stats, [loss], 30.0, optimise_threads=2)
+    assert two.set_index("quantity")["value"]["stage_seconds"] == 150
+    # A one-thread optimisation holds half the cores: the other case runs beside it.
+    stats = evaluate.with_timings(stats, [loss], 30.0, optimise_threads=1)
+    stats = stats.set_index("quantity")["value"]
+    assert stats["optimise_seconds"] == 60 and stats["stage_seconds"] == 120
     targets = evaluate.target_rows(pd.DataFrame(rows), stats.reset_index()).set_index("target")
     assert targets.loc["PSNR gain over QEM >= 3 dB (measured: dB)", "measured"] == 3.5
-    assert targets.loc["stage within 12 minutes (measured: minutes)", "measured"] == 2.5
+    assert targets.loc["stage within 12 minutes (measured: minutes)", "measured"] == 2.0
     assert targets["met"].all()

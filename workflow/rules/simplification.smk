@@ -41,7 +41,7 @@ rule simplify_optimise:
         "results/logs/simplify_optimise/{case}.log",
     benchmark:
         "results/benchmarks/simplify_optimise/{case}.tsv"
-    threads: workflow.cores
+    threads: config["simplify"]["threads"]
     resources:
         gpu=1,
     conda:
