@@ -11,6 +11,11 @@ def _hit(mi, shape, origin, direction):
     )
 
 
+def _view(origin, light, fov):
+    """A camera at ``origin`` looking at the world origin, the point light at ``light``."""
+    return cameras.View(origin, (0.0, 0.0, 0.0), light, fov, azimuth=0.0, elevation=0.0)
+
+
 def test_offset_lifts_a_point_onto_the_smooth_surface(mitsuba):
     """One triangle cut from the unit sphere, normals = positions: the shift of a hit equals
     the formula evaluated independently in numpy and moves it towards the sphere."""
@@ -50,14 +55,7 @@ def test_terminator_integrator_renders_a_coarse_sphere_closer_to_a_smooth_one(mi
     mi, dr = mitsuba
     terminator.register(mi, dr)
     coarse, fine = (trimesh.creation.icosphere(k) for k in (1, 5))
-    view = cameras.View(
-        origin=(0.0, 0.0, 4.0),
-        target=(0.0, 0.0, 0.0),
-        fov=40.0,
-        light=(4.0, 0.0, 1.5),
-        azimuth=0.0,
-        elevation=0.0,
-    )
+    view = _view((0.0, 0.0, 4.0), (4.0, 0.0, 1.5), 40.0)
     white = render.material(mi, 0.8)
 
     def image(mesh, integrator):
@@ -85,14 +83,7 @@ def test_gradients_match_direct_projective_where_nothing_shifts(mitsuba, baked_p
     mi, dr = mitsuba
     terminator.register(mi, dr)
     low, _ = baked_plane(8, [0, 0, 1], subdivisions=1)
-    view = cameras.View(
-        origin=(0.5, 0.3, 3.0),
-        target=(0.0, 0.0, 0.0),
-        fov=50.0,
-        light=(1.0, 1.0, 2.0),
-        azimuth=0.0,
-        elevation=0.0,
-    )
+    view = _view((0.5, 0.3, 3.0), (1.0, 1.0, 2.0), 50.0)
     grads = []
     for kind in ("direct_projective", terminator.INTEGRATOR):
         shape = render.atlas_shape(mi, low, render.material(mi, 0.7))
