@@ -53,7 +53,6 @@ def test_terminator_integrator_renders_a_coarse_sphere_closer_to_a_smooth_one(mi
     darkens jagged bands near the terminator that a fine sphere does not have; the fixed
     integrator must come closer to the fine sphere where both cover the pixel."""
     mi, dr = mitsuba
-    terminator.register(mi, dr)
     coarse, fine = (trimesh.creation.icosphere(k) for k in (1, 5))
     view = _view((0.0, 0.0, 4.0), (4.0, 0.0, 1.5), 40.0)
     white = render.material(mi, 0.8)
@@ -64,7 +63,7 @@ def test_terminator_integrator_renders_a_coarse_sphere_closer_to_a_smooth_one(mi
         return np.array(mi.render(scene, seed=0))
 
     reference = image(fine, None)
-    plain, fixed = (image(coarse, it) for it in (None, {"type": terminator.INTEGRATOR}))
+    plain, fixed = (image(coarse, it) for it in (None, terminator.integrator(mi, dr)))
     lit = (reference[..., 3] > 0.99) & (plain[..., 3] > 0.99) & (reference[..., 0] > 0.02)
     dark_plain = (plain[..., 0] < 0.5 * reference[..., 0])[lit].sum()
     dark_fixed = (fixed[..., 0] < 0.5 * reference[..., 0])[lit].sum()
@@ -81,13 +80,12 @@ def test_gradients_match_direct_projective_where_nothing_shifts(mitsuba, baked_p
     """On a plane (every vertex normal = the face normal) the fix shifts nothing, so the
     vertex gradients must be direct_projective's, silhouettes included."""
     mi, dr = mitsuba
-    terminator.register(mi, dr)
+    fixed = terminator.integrator(mi, dr, spp=4)
     low, _ = baked_plane(8, [0, 0, 1], subdivisions=1)
     view = _view((0.5, 0.3, 3.0), (1.0, 1.0, 2.0), 50.0)
     grads = []
-    for kind in ("direct_projective", terminator.INTEGRATOR):
+    for integrator in ({**fixed, "type": "direct_projective"}, fixed):
         shape = render.atlas_shape(mi, low, render.material(mi, 0.7))
-        integrator = {"type": kind, "sppc": 4, "sppp": 4, "sppi": 0, "guiding": "none"}
         scene = mi.load_dict(
             render.scene_dict(
                 mi, shape, view, 24, 4, 10.0, integrator, alpha=False, sample_border=True

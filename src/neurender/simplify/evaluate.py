@@ -2,8 +2,8 @@
 
 Every variant is rendered by Mitsuba from the test views (never optimised against), the
 same way for all: the atlas mesh with welded (seam-free) vertex normals, shadow rays with
-the terminator fix of :mod:`neurender.simplify.terminator`. It is
-compared with the reference renderer's test images after display encoding
+the terminator fix of :mod:`neurender.simplify.terminator`. The renders are compared with
+the reference renderer's test images after display encoding
 (``sRGB(clip(x, 0, 1))``): PSNR (dB), SSIM and FLIP (NVIDIA's ``flip-evaluator``, LDR mode,
 lower is better); plus the silhouette coverage error: pixels covered (alpha >= 0.5) by one
 image and not the other, as a fraction of the reference's covered pixels (Fig. 5, top).
@@ -78,7 +78,6 @@ def evaluate_cases(mi, dr, cases: list[str], cfg: dict, inputs: dict, out: dict)
     """Render every variant of every case from its test views; write the metrics, the
     figures, the per-case statistics with the stage's timings, and the targets."""
     started = time.perf_counter()
-    terminator.register(mi, dr)
     rows, crops = [], {}
     for case in cases:
         views = cameras.views_from_frame(io.read_csv(inputs[f"{case}_test_views"]))
@@ -95,7 +94,7 @@ def evaluate_cases(mi, dr, cases: list[str], cfg: dict, inputs: dict, out: dict)
                 cfg["intensity"],
                 cfg["seed"] + 104729,
                 f"{case} {variant}",
-                {"type": terminator.INTEGRATOR},
+                terminator.integrator(mi, dr),
             )
             for i, (image, ref) in enumerate(zip(renders[variant], references, strict=True)):
                 for metric, value in image_metrics(image, ref).items():

@@ -149,14 +149,6 @@ def optimise(
     if len(references) != len(views):
         raise ValueError(f"{len(references)} reference images for {len(views)} views")
     shape = atlas_shape(mi, low, material(mi, albedo, normal_map))
-    terminator.register(mi, dr)
-    integrator = {
-        "type": terminator.INTEGRATOR,
-        "sppc": cfg.spp,
-        "sppp": cfg.spp,
-        "sppi": 0,
-        "guiding": "none",
-    }
     scene = mi.load_dict(
         scene_dict(
             mi,
@@ -165,7 +157,7 @@ def optimise(
             cfg.width,
             cfg.spp,
             cfg.intensity,
-            integrator,
+            terminator.integrator(mi, dr, cfg.spp),
             alpha=False,
             sample_border=True,
         )

@@ -10,10 +10,10 @@ point on the smooth surface the vertex normals imply: for hit ``p`` with barycen
 ``p' = p - sum_i b_i min(0, (p - p_i) . n_i) n_i`` (``p`` is lifted only where it lies
 below a vertex's tangent plane, so concave regions and flat shading are unchanged).
 
-:func:`register` adds the Mitsuba integrator ``direct_terminator``: ``direct_projective``
-(same parameters, same silhouette gradients) shading every hit from ``p'``, whose alpha
-channel is the pixel's coverage. The shift is
-detached, so gradients with respect to the vertices flow as they do through ``p``.
+:func:`integrator` registers and configures the Mitsuba integrator ``direct_terminator``:
+``direct_projective`` (same parameters, same silhouette gradients) shading every hit from
+``p'``, whose alpha channel is the pixel's coverage. The shift is detached, so gradients
+with respect to the vertices flow as they do through ``p``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from types import ModuleType
 
 # Mitsuba and Dr.Jit are passed in, not imported: importing Dr.Jit before
 # neurender.mitsuba_setup has pointed it to LLVM leaves it without a CPU backend.
+
 INTEGRATOR = "direct_terminator"
 _registered: set[str] = set()
 
@@ -81,3 +82,11 @@ def register(mi: ModuleType, dr: ModuleType) -> None:
 
     mi.register_integrator(INTEGRATOR, lambda props: DirectTerminatorIntegrator(props))
     _registered.add(mi.variant())
+
+
+def integrator(mi: ModuleType, dr: ModuleType, spp: int = 0) -> dict:
+    """Scene-dict entry of ``direct_terminator`` (registered on first use) with ``spp``
+    samples per pixel for the continuous and the primary-silhouette gradients (0 for
+    renders that are not differentiated); no indirect-visibility gradients, no guiding."""
+    register(mi, dr)
+    return {"type": INTEGRATOR, "sppc": spp, "sppp": spp, "sppi": 0, "guiding": "none"}
