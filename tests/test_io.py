@@ -68,6 +68,14 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_atomic_write_gives_the_mode_of_a_plain_open(tmp_path):
+    with io.atomic_path(tmp_path / "atomic.txt") as tmp:
+        tmp.write_text("x")
+    (tmp_path / "plain.txt").write_text("x")
+    modes = {p.name: p.stat().st_mode & 0o777 for p in tmp_path.iterdir()}
+    assert modes["atomic.txt"] == modes["plain.txt"]
+
+
 def test_csv_round_trip_and_required_columns(tmp_path):
     df = pd.DataFrame({"method": ["prt"], "metric": ["ssim"], "value": [0.9]})
     io.write_csv(tmp_path / "m.csv", df)

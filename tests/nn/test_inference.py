@@ -1,7 +1,14 @@
+import numpy as np
+import pytest
 import torch
 from torch import nn
 
-from neurender.nn.inference import fold_batch_norms, prepare_for_inference
+from neurender.nn.inference import (
+    OnnxNetwork,
+    export_onnx,
+    fold_batch_norms,
+    prepare_for_inference,
+)
 from neurender.nn.unet import ResUNet
 
 
@@ -41,3 +48,39 @@ def test_every_batch_norm_is_folded_and_the_original_is_untouched():
     assert next(prepare_for_inference(model).stem[0].parameters()).is_contiguous(
         memory_format=torch.channels_last
     )
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    model = _trained_looking_unet()
+    path = tmp_path_factory.mktemp("onnx") / "unet.onnx"
+    export_onnx(model, torch.randn(2, 6, 16, 16), path)
+    return model, path
+
+
+@pytest.mark.parametrize("batch", [1, 3])
+def test_onnx_runtime_computes_the_pytorch_network_at_any_batch_size(exported, batch):
+    model, path = exported
+    x = torch.randn(batch, 6, 16, 16)
+    with torch.no_grad():
+        expected = model(x).numpy()
+    np.testing.assert_allclose(OnnxNetwork(path, threads=2)(x.numpy()), expected, atol=1e-5)
+
+
+def test_exported_file_is_self_contained(exported):
+    _, path = exported
+    assert sorted(p.name for p in path.parent.iterdir()) == ["unet.onnx"]  # no external data
+
+
+def test_export_refuses_a_batch_of_one_and_a_failed_check_leaves_nothing(tmp_path):
+    model = _trained_looking_unet()
+    with pytest.raises(ValueError, match="B >= 2"):
+        export_onnx(model, torch.randn(1, 6, 16, 16), tmp_path / "a.onnx")
+    with pytest.raises(ValueError, match="differs from PyTorch"):
+        export_onnx(model, torch.randn(2, 6, 16, 16), tmp_path / "b.onnx", atol=-1.0)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_onnx_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.onnx"):
+        OnnxNetwork(tmp_path / "nope.onnx")

@@ -1,7 +1,19 @@
 import numpy as np
 import pytest
+import torch
 
-from neurender.prt.model import MoMoPRT, Normalisation, Split, fit_momoprt
+from neurender.prt.model import (
+    DeepPRT,
+    MoMoPRT,
+    Normalisation,
+    Split,
+    TransferNetwork,
+    build_network,
+    export_deepprt,
+    fit_momoprt,
+    raw_inputs,
+    train_deepprt,
+)
 
 
 def _split(params, rng, n=4, k=16, affine=None):
@@ -57,3 +69,37 @@ def test_residual_targets_put_the_mean_image_at_one_half():
     split = _split(rng.uniform(0, 1, (8, 2)), rng, affine=(w, b))
     norm = Normalisation.fit(split, "diffuse", residual=True)
     np.testing.assert_allclose(norm.encode(split.targets("diffuse")).mean(0), 0.5, atol=1e-5)
+
+
+@pytest.mark.parametrize("residual", [False, True])
+def test_transfer_network_decodes_the_network_of_normalised_inputs(residual):
+    """The shipped graph equals the numpy normalisation, network and decoding in sequence."""
+    rng = np.random.default_rng(4)
+    w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
+    split = _split(rng.uniform(0, 1, (3, 2)), rng, affine=(w, b))
+    split.positions = split.positions * 5 + 2  # away from the unit box the normalisation undoes
+    norm = Normalisation.fit(split, "diffuse", residual=residual)
+    torch.manual_seed(0)
+    network = build_network(16, [4, 8], 1).eval()
+    with torch.no_grad():
+        expected = norm.decode(network(torch.from_numpy(norm.inputs(split))).numpy())
+        got = TransferNetwork(network, norm)(torch.from_numpy(raw_inputs(split))).numpy()
+    np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-5)
+
+
+def test_trained_deepprt_exports_and_both_engines_agree(tmp_path):
+    rng = np.random.default_rng(5)
+    w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
+    train = _split(rng.uniform(0, 1, (6, 2)), rng, affine=(w, b))
+    val = _split(rng.uniform(0, 1, (3, 2)), rng, affine=(w, b))
+    cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
+    cfg |= {"lr": 1e-3, "residual_targets": True, "device": "cpu"}
+    checkpoint, onnx_file = tmp_path / "net.pt", tmp_path / "net.onnx"
+    train_deepprt(train, val, "glossy", cfg, 1, str(checkpoint), str(tmp_path / "loss.csv"))
+    export_deepprt(checkpoint, val, onnx_file)
+    net = DeepPRT(checkpoint, onnx_file, device="cpu")
+    assert net.engine == "onnxruntime" and set(net.engines) == {"onnxruntime", "pytorch"}
+    shipped = net.predict(val, batch=2)
+    assert shipped.shape == (3, 48, 4, 4)
+    np.testing.assert_allclose(shipped, net.predict(val, engine="pytorch"), atol=1e-5)
+    assert DeepPRT(checkpoint, device="cpu").engine == "pytorch"  # no file: PyTorch

@@ -7,7 +7,7 @@ rule prt_train:
         unpack(prt_split_inputs),
     output:
         checkpoint="results/prt/{object}/deepprt_{material}.pt",
-        weights="results/prt/{object}/deepprt_{material}_weights.pt",
+        onnx="results/prt/{object}/deepprt_{material}.onnx",
         loss="results/prt/{object}/deepprt_{material}_loss.csv",
     params:
         cfg=prt_train_params(),
@@ -47,6 +47,7 @@ rule prt_evaluate:
     input:
         unpack(prt_split_inputs),
         deepprt=expand("results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS),
+        onnx=expand("results/prt/{{object}}/deepprt_{material}.onnx", material=PRT_MATERIALS),
         momoprt=expand("results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS),
         light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
     output:
@@ -74,8 +75,8 @@ rule prt_model_summary:
         checkpoints=expand(
             "results/prt/{object}/deepprt_{material}.pt", object=config["prt"]["objects"], material=PRT_MATERIALS
         ),
-        weights=expand(
-            "results/prt/{object}/deepprt_{material}_weights.pt",
+        onnx=expand(
+            "results/prt/{object}/deepprt_{material}.onnx",
             object=config["prt"]["objects"],
             material=PRT_MATERIALS,
         ),
@@ -110,6 +111,7 @@ rule prt_experiment:
     input:
         unpack(prt_split_inputs),
         deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        onnx="results/prt/{object}/deepprt_diffuse.onnx",
         momoprt="results/prt/{object}/momoprt_diffuse.npz",
         light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
     output:
@@ -134,6 +136,7 @@ rule prt_relight:
     input:
         unpack(prt_split_inputs),
         deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        onnx="results/prt/{object}/deepprt_diffuse.onnx",
         probes=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]),
     output:
         csv="results/prt/{object}/relight.csv",

@@ -10,6 +10,7 @@ evaluate_object(
     {s: inp[f"{s}_dir"] for s in ("val", "test")},
     {s: inp[f"{s}_manifest"] for s in ("val", "test")},
     dict(zip(MATERIALS, inp.deepprt, strict=True)),
+    dict(zip(MATERIALS, inp.onnx, strict=True)),
     dict(zip(MATERIALS, inp.momoprt, strict=True)),
     inp.light[0],
     snakemake.params.cfg,

@@ -9,6 +9,7 @@ evaluate_experiment(
     inp.test_dir,
     inp.test_manifest,
     inp.deepprt,
+    inp.onnx,
     inp.momoprt,
     inp.light[0],
     snakemake.params.cfg,

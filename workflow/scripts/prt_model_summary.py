@@ -12,7 +12,7 @@ summarise_models(
     inp.metrics,
     inp.experiments,
     dict(zip(keys, inp.checkpoints, strict=True)),
-    dict(zip(keys, inp.weights, strict=True)),
+    dict(zip(keys, inp.onnx, strict=True)),
     dict(zip(keys, inp.losses, strict=True)),
     {obj: inp.frames[3 * i : 3 * i + 3] for i, obj in enumerate(objects)},
     snakemake.params.cfg,

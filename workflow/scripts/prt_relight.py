@@ -9,6 +9,7 @@ relight_figure(
     inp.test_dir,
     inp.test_manifest,
     inp.deepprt,
+    inp.onnx,
     inp.probes,
     snakemake.params.cfg,
     snakemake.threads,

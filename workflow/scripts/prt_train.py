@@ -11,6 +11,6 @@ run_train(
     snakemake.params.cfg,
     snakemake.threads,
     snakemake.output.checkpoint,
-    snakemake.output.weights,
+    snakemake.output.onnx,
     snakemake.output.loss,
 )

@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from torch import nn
 from torch.utils.data import TensorDataset
 
 from neurender import io, train
-from neurender.nn.inference import prepare_for_inference
+from neurender.nn.inference import OnnxNetwork, export_onnx, prepare_for_inference
 from neurender.nn.unet import ResUNet, count_parameters
 from neurender.prt.data import read_frame
 
@@ -68,6 +69,12 @@ def load_split(
     return Split(*(np.stack([fr[k] for fr in frames]) for k in ("P", "N", "T", "G")), params=params)
 
 
+def raw_inputs(split: Split) -> np.ndarray:
+    """``(F, 6, n, n)`` float32: the P (world units) and N (unit vectors) images, unscaled."""
+    x = np.concatenate([split.positions, split.normals], -1)
+    return np.ascontiguousarray(np.moveaxis(x, -1, 1), np.float32)
+
+
 @dataclasses.dataclass
 class Normalisation:
     """Affine maps of inputs and targets; ``x_normalised = (x - offset) / scale``.
@@ -108,11 +115,10 @@ class Normalisation:
         )
 
     def inputs(self, split: Split) -> np.ndarray:
-        """``(F, 6, n, n)`` float32 network inputs."""
-        p = (split.positions - self.p_offset) / self.p_scale
-        return np.ascontiguousarray(
-            np.moveaxis(np.concatenate([p, split.normals], -1), -1, 1), np.float32
-        )
+        """``(F, 6, n, n)`` float32 network inputs (P normalised)."""
+        x = raw_inputs(split)
+        x[:, :3] = (x[:, :3] - self.p_offset[:, None, None]) / self.p_scale[:, None, None]
+        return x
 
     def encode(self, targets: np.ndarray) -> np.ndarray:
         """Targets ``(F, C, n, n)`` to network outputs in [0, 1]."""
@@ -179,29 +185,74 @@ def train_deepprt(
     return model
 
 
-class DeepPRT:
-    """A trained network with its normalisation, for inference on numpy splits."""
+class TransferNetwork(nn.Module):
+    """A trained network with its normalisation, the graph a renderer ships.
 
-    def __init__(self, checkpoint: str | Path, device: str = "auto", threads: int = 1):
+    ``(B, 6, n, n)`` raw P and N images (:func:`raw_inputs`) to ``(B, C, n, n)`` transfer
+    in the targets' units: ``decode(network(normalised inputs))``.
+    """
+
+    def __init__(self, network: nn.Module, norm: Normalisation):
+        super().__init__()
+        self.network = network
+        tensor = lambda a: torch.as_tensor(np.asarray(a, np.float32))  # noqa: E731
+        self.register_buffer("p_offset", tensor(norm.p_offset).reshape(1, 3, 1, 1))
+        self.register_buffer("p_scale", tensor(norm.p_scale).reshape(1, 3, 1, 1))
+        self.register_buffer("t_offset", tensor(norm.t_offset)[None])
+        self.register_buffer("t_scale", tensor(norm.t_scale)[None])
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        p = (x[:, :3] - self.p_offset) / self.p_scale
+        return self.network(torch.cat([p, x[:, 3:]], 1)) * self.t_scale + self.t_offset
+
+
+class DeepPRT:
+    """A trained network for inference on numpy splits.
+
+    It runs the exported ONNX file with ONNX Runtime when one is given and the device is the
+    CPU (the faster engine there), PyTorch otherwise; ``engines`` holds both on the CPU so
+    they can be timed side by side.
+    """
+
+    def __init__(
+        self,
+        checkpoint: str | Path,
+        onnx_file: str | Path | None = None,
+        device: str = "auto",
+        threads: int = 1,
+    ):
         state = train.load_checkpoint(checkpoint)
         extra = state["extra"]
         self.device = train.resolve_device(device, threads)
-        self.model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
-        self.model.load_state_dict(state["model"])
-        self.model.to(self.device).eval()
-        self.network = prepare_for_inference(self.model)
+        model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
+        model.load_state_dict(state["model"])
+        self.parameters = count_parameters(model)
         self.norm = Normalisation(**{k: np.asarray(v) for k, v in extra["normalisation"].items()})
-        self.parameters = count_parameters(self.model)
+        self.module = TransferNetwork(prepare_for_inference(model), self.norm).to(self.device)
+        self.engines = {"pytorch": self._run_pytorch}
+        if onnx_file is not None and self.device.type == "cpu":
+            self.engines["onnxruntime"] = OnnxNetwork(onnx_file, threads)
+        self.engine = "onnxruntime" if "onnxruntime" in self.engines else "pytorch"
 
     @torch.inference_mode()
-    def predict(self, split: Split, batch: int = 8) -> np.ndarray:
-        """``(F, C, n, n)`` transfer in physical units."""
-        x = torch.from_numpy(self.norm.inputs(split)).to(memory_format=torch.channels_last)
-        out = [
-            self.network(x[i : i + batch].to(self.device)).cpu().numpy()
-            for i in range(0, len(x), batch)
-        ]
-        return self.norm.decode(np.concatenate(out))
+    def _run_pytorch(self, x: np.ndarray) -> np.ndarray:
+        x = torch.from_numpy(x).to(self.device, memory_format=torch.channels_last)
+        return self.module(x).cpu().numpy()
+
+    def predict(self, split: Split, batch: int = 8, engine: str | None = None) -> np.ndarray:
+        """``(F, C, n, n)`` transfer in physical units, by ``engine`` (default ``self.engine``)."""
+        run = self.engines[engine or self.engine]
+        x = raw_inputs(split)
+        return np.concatenate([run(x[i : i + batch]) for i in range(0, len(x), batch)])
+
+
+def export_deepprt(checkpoint: str | Path, example: Split, out: str | Path) -> None:
+    """Write the network file a renderer ships: ``checkpoint``'s network with its
+    normalisation (:class:`TransferNetwork`) as ONNX, checked against PyTorch on the first
+    two frames of ``example`` (the first twice if it has one)."""
+    net = DeepPRT(checkpoint, device="cpu")
+    x = raw_inputs(example)
+    export_onnx(net.module, torch.from_numpy(x[np.arange(2) % len(x)]), out)
 
 
 # ---------------------------------------------------------------- MoMoPRT
@@ -318,17 +369,14 @@ def run_train(
     cfg: dict,
     threads: int,
     checkpoint: str,
-    weights_out: str,
+    onnx_out: str,
     log_csv: str,
 ) -> None:
-    """Train DeepPRT on an object's train split (val for model selection) and save its weights."""
+    """Train DeepPRT on an object's train split (val for model selection) and export the
+    selected network as the ONNX file a renderer ships."""
     _, splits = load_splits(seq_path, dirs, manifests, cfg["n_bands"], ("train", "val"))
-    model = train_deepprt(
-        splits["train"], splits["val"], material, cfg, threads, checkpoint, log_csv
-    )
-    # The network file a renderer ships: float32 weights only.
-    with io.atomic_path(weights_out) as tmp:
-        torch.save({k: v.detach().cpu().float() for k, v in model.state_dict().items()}, tmp)
+    train_deepprt(splits["train"], splits["val"], material, cfg, threads, checkpoint, log_csv)
+    export_deepprt(checkpoint, splits["val"], onnx_out)
 
 
 def run_momoprt(
