@@ -193,7 +193,7 @@ def timing_rows(
 ) -> pd.DataFrame:
     """Inference vs ray-tracing time, and the equal-quality speed ratio.
 
-    The network's time is the median of 21 predictions of one frame (inputs, network and
+    The network's time is the median of 51 predictions of one frame (inputs, network and
     decoding) by the engine that ``net`` ships with (``inference_ms_per_frame``; ONNX
     Runtime on the CPU); every other engine it holds is timed beside it
     (``inference_ms_per_frame_<engine>``). The equal-quality ratio compares the shipped
@@ -208,7 +208,7 @@ def timing_rows(
     for engine in net.engines:
         net.predict(split, engine=engine)  # warm-up
         times = []
-        for _ in range(21):  # the median: a 2-core machine's timings have outliers
+        for _ in range(51):  # the median: a 2-core machine's timings have outliers
             start = time.perf_counter()
             net.predict(split, engine=engine)
             times.append(time.perf_counter() - start)
