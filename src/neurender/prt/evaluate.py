@@ -449,8 +449,9 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
 
 def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -> None:
     """SSIM against the clean reference vs milliseconds per frame: the ray-traced estimates
-    of every count in ``directions`` (a curve per object) and the network (a star), both
-    measured on the first test frames; the equal-quality ratio is the horizontal gap."""
+    of every count in ``directions`` (a curve per object) and the shipped network (a star;
+    a hollow star: the same network run by PyTorch, where timed), measured on the first
+    test frames; the equal-quality ratio is the horizontal gap."""
     timing = table[table.split == "timing"]
     fig, ax = plt.subplots(figsize=(6.5, 3.8))
     lowest, span = 1.0, []
@@ -486,6 +487,17 @@ def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -
             ),
         )
         span += [*ms, value["inference_ms_per_frame"]]
+        if "inference_ms_per_frame_pytorch" in value:  # the same network in PyTorch
+            ax.plot(
+                [value["inference_ms_per_frame_pytorch"]],
+                [target],
+                "*",
+                ms=10,
+                mfc="none",
+                color=colour,
+                label="hollow stars: the same network in PyTorch" if i == 0 else None,
+            )
+            span.append(value["inference_ms_per_frame_pytorch"])
     ax.set_xscale("log")
     ax.xaxis.set_major_formatter(plt.ScalarFormatter())
     ax.xaxis.set_minor_formatter(plt.NullFormatter())
