@@ -18,6 +18,7 @@ import copy
 import io
 import logging
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +56,23 @@ def prepare_for_inference(model: nn.Module) -> nn.Module:
     return fold_batch_norms(model).to(memory_format=torch.channels_last)
 
 
+@contextlib.contextmanager
+def _quiet_exporter() -> Iterator[io.StringIO]:
+    """Collect what ``torch.onnx.export`` prints and silence its warnings that ask nothing
+    of us: torchvision ops missing from its registry (we use none) and a deprecation that
+    torch.export (2.13) trips over inside itself."""
+    registry = logging.getLogger("torch.onnx._internal.exporter._registration")
+    level = registry.level
+    registry.setLevel(logging.ERROR)
+    chatter = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(chatter), warnings.catch_warnings():
+            warnings.filterwarnings("ignore", ".*LeafSpec.*", FutureWarning)
+            yield chatter
+    finally:
+        registry.setLevel(level)
+
+
 def export_onnx(model: nn.Module, example: torch.Tensor, path: str | Path, atol: float = 1e-4):
     """Write an eval-mode CPU ``model`` as an ONNX graph with a dynamic batch axis.
 
@@ -74,10 +92,7 @@ def export_onnx(model: nn.Module, example: torch.Tensor, path: str | Path, atol:
     with torch.inference_mode():
         expected = model(example).numpy()
     batch = torch.export.Dim("batch")
-    chatter = io.StringIO()  # the exporter prints its progress; keep it in the log
-    with contextlib.redirect_stdout(chatter), warnings.catch_warnings(), atomic_path(path) as tmp:
-        # torch.export trips over a deprecation of its own (torch 2.13); nothing to act on.
-        warnings.filterwarnings("ignore", ".*LeafSpec.*", FutureWarning)
+    with _quiet_exporter() as chatter, atomic_path(path) as tmp:
         torch.onnx.export(
             model,
             (example,),
