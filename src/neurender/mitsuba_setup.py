@@ -1,4 +1,4 @@
-"""Import Mitsuba 3 with a differentiable variant that runs on this machine.
+"""Mitsuba 3 for every stage: import a differentiable variant that runs here, build meshes.
 
 ``device='auto'`` picks ``cuda_ad_rgb`` when Dr.Jit finds a CUDA driver, else
 ``llvm_ad_rgb``. The LLVM variants need an LLVM >= 16 shared library: pip installs one
@@ -13,6 +13,10 @@ import glob
 import os
 import sys
 from types import ModuleType
+
+import numpy as np
+
+from neurender.geometry import vertex_normals
 
 INSTALL_HINT = "pip install mitsuba karellen-llvm-core (or conda install -c conda-forge libllvm19)"
 
@@ -68,3 +72,44 @@ def require_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
         return import_mitsuba(device)
     except RuntimeError as err:
         raise SystemExit(f"error: {err}") from None
+
+
+def mesh(
+    mi: ModuleType,
+    positions: np.ndarray,
+    faces: np.ndarray,
+    bsdf: dict,
+    uvs: np.ndarray | None = None,
+    normals: np.ndarray | None = None,
+    name: str = "mesh",
+):
+    """A Mitsuba triangle mesh built in memory.
+
+    Args:
+        positions: ``(V, 3)`` world positions; faces: ``(F, 3)`` vertex indices.
+        bsdf: a BSDF dict for ``mi.load_dict``.
+        uvs: optional ``(V, 2)`` texture coordinates.
+        normals: ``(V, 3)`` unit vertex normals Mitsuba shades with (default: the
+            area-weighted ones of :func:`neurender.geometry.vertex_normals`). Mitsuba does
+            not recompute them when the positions change later.
+    """
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(bsdf)
+    shape = mi.Mesh(
+        name,
+        len(positions),
+        len(faces),
+        has_vertex_normals=True,
+        has_vertex_texcoords=uvs is not None,
+        props=props,
+    )
+    params = mi.traverse(shape)
+    params["vertex_positions"] = np.ravel(positions).astype(np.float32)
+    params["faces"] = np.ravel(faces).astype(np.uint32)
+    if normals is None:
+        normals = vertex_normals(positions, faces)
+    params["vertex_normals"] = np.ravel(normals).astype(np.float32)
+    if uvs is not None:
+        params["vertex_texcoords"] = np.ravel(uvs).astype(np.float32)
+    params.update()
+    return shape

@@ -1,7 +1,7 @@
 import numpy as np
 import pandas as pd
 
-from neurender.simplify import evaluate
+from neurender.simplify import evaluate, figures, summary
 
 
 def test_coverage_error_counts_extra_and_missing_pixels():
@@ -25,12 +25,10 @@ def test_image_metrics_of_identical_and_perturbed_images():
     assert 20 < m["psnr"] < 45 and m["flip"] > 0
 
 
-def test_srgb_and_crop():
-    assert np.isclose(evaluate.srgb(np.array(1.0)), 1.0)
-    assert np.isclose(evaluate.srgb(np.array(0.001)), 0.01292)
+def test_object_crop_frames_the_covered_pixels():
     alpha = np.zeros((20, 20))
     alpha[5:8, 10:12] = 1
-    rows, cols = evaluate.object_crop(alpha, margin=1)
+    rows, cols = figures.object_crop(alpha, margin=1)
     assert (rows.start, rows.stop, cols.start, cols.stop) == (4, 9, 9, 13)
 
 
@@ -45,13 +43,13 @@ def test_targets_compare_ours_with_both_baselines():
     loss = pd.DataFrame(
         {"case": "head", "step": [0, 1], "metric": "seconds", "value": [30.0, 30.0]}
     )
-    two = evaluate.with_timings(stats, [loss], 30.0, optimise_threads=2)
+    two = summary.with_timings(stats, [loss], 30.0, optimise_threads=2)
     assert two.set_index("quantity")["value"]["stage_seconds"] == 150
     # A one-thread optimisation holds half the cores: the other case runs beside it.
-    stats = evaluate.with_timings(stats, [loss], 30.0, optimise_threads=1)
+    stats = summary.with_timings(stats, [loss], 30.0, optimise_threads=1)
     stats = stats.set_index("quantity")["value"]
     assert stats["optimise_seconds"] == 60 and stats["stage_seconds"] == 120
-    targets = evaluate.target_rows(pd.DataFrame(rows), stats.reset_index()).set_index("target")
+    targets = summary.targets(pd.DataFrame(rows), stats.reset_index()).set_index("check")
     assert targets.loc["PSNR gain over QEM >= 3 dB (measured: dB)", "measured"] == 3.5
     assert targets.loc["stage within 12 minutes (measured: minutes)", "measured"] == 2.0
     assert targets["met"].all()

@@ -8,11 +8,10 @@ import pytest
 import torch
 import trimesh
 
-from neurender.metaballs.raymarch import field
-from neurender.metaballs.scenes import Scene
+from neurender.geometry import vertex_normals
+from neurender.metaball import Scene, field
 from neurender.mitsuba_setup import variant_for
-from neurender.prt.geometry_image import vertex_normals
-from neurender.simplify import assets, bake, cameras, mesh_ops
+from neurender.simplify import assets, bake, mesh_ops, views
 
 
 def test_variant_for_devices():
@@ -25,21 +24,11 @@ def test_variant_for_devices():
         variant_for("tpu", has_cuda=False)
 
 
-def test_pixel_rays_centre_and_orientation():
-    view = cameras.View((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 0.0, 5.0), 60.0, 0.0, 0.0)
-    d = cameras.pixel_rays(view, 4)
-    assert np.allclose(np.linalg.norm(d, axis=-1), 1)
-    # Looking down -z from +z with y up: image left is world -x, image top is +y.
-    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0 and d[-1, -1, 0] > 0 and d[-1, -1, 1] < 0
-    half = math.tan(math.radians(30)) * (1 - 1 / 4)
-    assert np.isclose(d[0, 0, 0] / -d[0, 0, 2], -half)
-
-
 def test_views_round_trip_through_csv_frame():
-    views = cameras.sample_views(5, 3, "test", 7.0, 30.0, (-80, 80), (-30, 30), 6.0, 40.0)
-    back = cameras.views_from_frame(cameras.views_frame(views))
-    assert back == views
-    for v in views:  # the light lies within the cone around the camera direction
+    sampled = views.sample_views(5, 3, "test", 7.0, 30.0, (-80, 80), (-30, 30), 6.0, 40.0)
+    back = views.views_from_frame(views.views_frame(sampled))
+    assert back == sampled
+    for v in sampled:  # the light lies within the cone around the camera direction
         cos = np.dot(v.origin, v.light) / (np.linalg.norm(v.origin) * np.linalg.norm(v.light))
         assert cos >= math.cos(math.radians(40)) - 1e-9
         assert -80 <= v.azimuth <= 80

@@ -1,7 +1,8 @@
 import numpy as np
 import trimesh
 
-from neurender.simplify import bake, cameras, mesh_ops, optimise, render
+from neurender import mitsuba_setup
+from neurender.simplify import bake, mesh_ops, optimise, render, views
 
 
 def test_tonemap_is_srgb_of_log1p(mitsuba):
@@ -48,11 +49,11 @@ def test_optimisation_recovers_a_normal_map(mitsuba, baked_plane):
     optimised map must move most of the way to the truth (texels the cameras see)."""
     mi, dr = mitsuba
     low, truth = baked_plane(16, [0.4, 0.2, 0.89], subdivisions=1)
-    views = cameras.sample_views(6, 0, "train", 4.0, 40.0, (-30, 30), (-30, 30), 3.0, 60.0)
-    shape = render.mesh_shape(
+    train_views = views.sample_views(6, 0, "train", 4.0, 40.0, (-30, 30), (-30, 30), 3.0, 60.0)
+    shape = mitsuba_setup.mesh(
         mi, low.atlas_positions(), low.uv_faces, render.material(mi, 0.8, truth), low.uvs
     )
-    references = render.render_views(mi, shape, views, 24, 64, 20.0, seed=0)
+    references = render.render_views(mi, shape, train_views, 24, 64, 20.0, seed=0)
     flat = np.broadcast_to([0.5, 0.5, 1.0], truth.shape).copy()
     cfg = optimise.OptimiseConfig(
         steps=30,
@@ -67,7 +68,7 @@ def test_optimisation_recovers_a_normal_map(mitsuba, baked_plane):
         optimise_positions=False,
     )
     positions, normal_map, albedo, loss = optimise.optimise(
-        mi, dr, low, flat, 0.8, references, views, cfg
+        mi, dr, low, flat, 0.8, references, train_views, cfg
     )
     assert albedo is None and np.allclose(positions, low.positions)
     covered = np.zeros(truth.shape[:2], bool)

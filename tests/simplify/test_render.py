@@ -2,8 +2,9 @@ import numpy as np
 import torch
 import trimesh
 
-from neurender.metaballs.scenes import Scene
-from neurender.simplify import cameras, implicit, render
+from neurender import mitsuba_setup
+from neurender.metaball import Scene
+from neurender.simplify import implicit, render, views
 
 
 def test_ray_marched_ball_matches_mitsuba_sphere(mitsuba):
@@ -16,11 +17,11 @@ def test_ray_marched_ball_matches_mitsuba_sphere(mitsuba):
         torch.tensor([0.8], dtype=torch.float64),
         torch.full((1, 3), 0.5, dtype=torch.float64),
     )
-    views = cameras.sample_views(2, 0, "test", 8.0, 30.0, (-180, 180), (-60, 60), 6.0, 50.0)
+    test_views = views.sample_views(2, 0, "test", 8.0, 30.0, (-180, 180), (-60, 60), 6.0, 50.0)
     sphere = trimesh.creation.icosphere(5, radius=0.8)
-    shape = render.mesh_shape(mi, sphere.vertices + centre, sphere.faces, render.material(mi, 0.5))
-    ours = np.stack([implicit.render_implicit(ball, v, 32, 4, 40.0) for v in views])
-    theirs = render.render_views(mi, shape, views, 32, 256, 40.0, seed=0)
+    shape = mitsuba_setup.mesh(mi, sphere.vertices + centre, sphere.faces, render.material(mi, 0.5))
+    ours = np.stack([implicit.render_implicit(ball, v, 32, 4, 40.0) for v in test_views])
+    theirs = render.render_views(mi, shape, test_views, 32, 256, 40.0, seed=0)
     assert np.abs(ours[..., 3] - theirs[..., 3]).mean() < 0.01
     assert np.abs(ours[..., :3].sum() / theirs[..., :3].sum() - 1) < 0.02
     assert np.abs(ours[..., :3] - theirs[..., :3]).mean() < 0.02 * theirs[..., :3].mean() + 1e-3
@@ -34,7 +35,7 @@ def test_baked_normal_map_follows_mitsubas_tangent_convention(mitsuba, baked_pla
     w = np.array([0.45, -0.3, 0.84])
     w /= np.linalg.norm(w)
     low, normal_map = baked_plane(64, w, subdivisions=2)
-    shape = render.mesh_shape(
+    shape = mitsuba_setup.mesh(
         mi, low.atlas_positions(), low.uv_faces, render.material(mi, 1.0, normal_map), low.uvs
     )
     scene = mi.load_dict({"type": "scene", "shape": shape})

@@ -1,7 +1,8 @@
 import numpy as np
 import trimesh
 
-from neurender.simplify import cameras, mesh_ops, render, terminator
+from neurender import mitsuba_setup
+from neurender.simplify import mesh_ops, render, terminator, views
 
 
 def _hit(mi, shape, origin, direction):
@@ -13,7 +14,7 @@ def _hit(mi, shape, origin, direction):
 
 def _view(origin, light, fov):
     """A camera at ``origin`` looking at the world origin, the point light at ``light``."""
-    return cameras.View(origin, (0.0, 0.0, 0.0), light, fov, azimuth=0.0, elevation=0.0)
+    return views.View(origin, (0.0, 0.0, 0.0), fov, light=light, azimuth=0.0, elevation=0.0)
 
 
 def test_offset_lifts_a_point_onto_the_smooth_surface(mitsuba):
@@ -23,7 +24,7 @@ def test_offset_lifts_a_point_onto_the_smooth_surface(mitsuba):
     v = np.array([[1.0, 0.2, 0.1], [0.1, 1.0, 0.3], [0.2, 0.1, 1.0]])
     v /= np.linalg.norm(v, axis=1, keepdims=True)
     faces = np.array([[0, 1, 2]])
-    shape = render.mesh_shape(mi, v, faces, render.material(mi, 0.5), normals=v)
+    shape = mitsuba_setup.mesh(mi, v, faces, render.material(mi, 0.5), normals=v)
     b = np.array([0.5, 0.3, 0.2])
     p = b @ v
     si = _hit(mi, shape, 3 * p, -p / np.linalg.norm(p))
@@ -39,7 +40,7 @@ def test_offset_is_zero_for_flat_normals_and_misses(mitsuba):
     mi, dr = mitsuba
     v = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
     up = np.tile([0.0, 0.0, 1.0], (3, 1))
-    shape = render.mesh_shape(mi, v, np.array([[0, 1, 2]]), render.material(mi, 0.5), normals=up)
+    shape = mitsuba_setup.mesh(mi, v, np.array([[0, 1, 2]]), render.material(mi, 0.5), normals=up)
     assert np.allclose(
         np.array(terminator.terminator_offset(mi, dr, _hit(mi, shape, [0.1, 0, 2], [0, 0, -1]))), 0
     )
@@ -58,7 +59,7 @@ def test_terminator_integrator_renders_a_coarse_sphere_closer_to_a_smooth_one(mi
     white = render.material(mi, 0.8)
 
     def image(mesh, integrator):
-        shape = render.mesh_shape(mi, mesh.vertices, mesh.faces, white)
+        shape = mitsuba_setup.mesh(mi, mesh.vertices, mesh.faces, white)
         scene = mi.load_dict(render.scene_dict(mi, shape, view, 64, 16, 20.0, integrator))
         return np.array(mi.render(scene, seed=0))
 

@@ -1,6 +1,45 @@
 # Image-space metaballs (thesis 4.1, 5.2): circle inputs and ray-marched G-buffers as AB PNGs.
 
 
+METABALL_SPLITS = ("train", "val", "test")
+
+
+METABALL_VARIANTS = ("pix2pix", "l1only", "sphere_residual")
+
+
+# The thesis's network and ours: the demo animates and times both.
+METABALL_DEMO_VARIANTS = ("pix2pix", "sphere_residual")
+
+
+def metaballs_params():
+    return {"seed": config["seed"], **config["metaballs"]}
+
+
+def metaballs_model_params(wildcards):
+    """Data and model keys. A training job gets its own variant's epochs only, so tuning one
+    variant never retrains another; only the thesis's pix2pix has a GAN term."""
+    cfg = {"device": config["device"], **metaballs_params(), **config["metaballs_model"]}
+    variant = wildcards.get("variant")
+    if variant is not None:
+        cfg["variant"] = variant
+        cfg["epochs"] = cfg["epochs"][variant]
+        if variant != "pix2pix":
+            cfg["gan_weight"] = 0.0
+    return cfg
+
+
+def metaballs_report_tables():
+    return expand("results/metaballs/{table}.csv", table=("targets", "metrics", "timing", "data"))
+
+
+def metaballs_report_figures():
+    names = ("comparison", "accuracy_by_scene", "demo_network_vs_raymarch", "temporal_stability")
+    names += ("frame_time_vs_balls", "examples")
+    return expand("results/metaballs/figures/{name}.png", name=names) + ["results/metaballs/figures/demo.gif"]
+
+
+
+
 rule metaballs_examples:
     output:
         examples=directory("results/metaballs/{split}"),

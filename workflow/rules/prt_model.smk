@@ -2,6 +2,27 @@
 # rendered-appearance evaluation against the clean test reference, compression and timing.
 
 
+def prt_report_tables():
+    tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
+    return expand("results/prt/{table}.csv", table=tables) + prt_experiment_tables()
+
+
+def prt_report_figures():
+    objects = config["prt"]["objects"]
+    frames = expand("results/prt/figures/{object}_{kind}.png", object=objects, kind=("prediction", "frames"))
+    experiments = expand("results/prt/figures/{experiment}.png", experiment=PRT_EXPERIMENTS)
+    fixed = [
+        "results/prt/figures/loss_curves.png",
+        "results/prt/figures/equal_quality.png",
+        "results/prt/figures/light_probes.png",
+    ]
+    if len(config["prt"]["probes"]) >= 2:
+        fixed.append(f"results/prt/figures/{objects[0]}_relight.png")
+    return frames + experiments + fixed
+
+
+
+
 rule prt_train:
     input:
         unpack(prt_split_inputs),

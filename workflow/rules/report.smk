@@ -3,8 +3,14 @@
 
 rule report:
     input:
-        tables=report_tables(),
-        figures=report_figures(),
+        tables=prt_report_tables()
+        + ndr_report_tables()
+        + metaballs_report_tables()
+        + simplify_report_tables(),
+        figures=prt_report_figures()
+        + ndr_report_figures()
+        + metaballs_report_figures()
+        + simplify_report_figures(),
     output:
         html="results/report.html",
     params:

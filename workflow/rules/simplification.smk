@@ -1,4 +1,77 @@
-# Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3.
+# Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3:
+# reference renders, QEM and classic bakes, optimisation, held-out evaluation.
+
+from neurender.simplify import CASE_FILES as SIMPLIFY_CASE_FILES
+
+SIMPLIFY_CASES = tuple(config["simplify"]["cases"])
+SIMPLIFY_RENDER_KEYS = ("resolution", "intensity")
+SIMPLIFY_PREPARE_KEYS = SIMPLIFY_RENDER_KEYS + (
+    "texture_size",
+    "train_views",
+    "test_views",
+    "reference_spp",
+    "test_spp",
+    "supersample",
+    "camera_distance",
+    "fov",
+    "light_distance",
+    "light_cone",
+)
+SIMPLIFY_OPTIMISE_KEYS = SIMPLIFY_RENDER_KEYS + (
+    "texture_size",
+    "steps",
+    "batch",
+    "spp",
+    "lr_positions",
+    "lr_textures",
+    "lr_final_fraction",
+    "laplacian_scale",
+    "laplacian_min_fraction",
+)
+#: Keys only one use case reads.
+SIMPLIFY_CASE_KEYS = {
+    "head": ("head_vertices", "head_triangles"),
+    "metaballs": ("metaball_count", "metaball_grid", "metaball_triangles"),
+}
+
+
+def simplify_prepare_params(wildcards):
+    keys = SIMPLIFY_PREPARE_KEYS + SIMPLIFY_CASE_KEYS[wildcards.case]
+    return section_keys("simplify", keys, ("seed", "device"), case=wildcards.case)
+
+
+def simplify_optimise_params(wildcards):
+    return section_keys(
+        "simplify", SIMPLIFY_OPTIMISE_KEYS, ("seed", "device"), case=wildcards.case
+    )
+
+
+def simplify_evaluate_params():
+    keys = SIMPLIFY_RENDER_KEYS + ("eval_spp", "threads", "cases")
+    return section_keys("simplify", keys, ("seed", "device"))
+
+
+def simplify_evaluate_inputs(wildcards):
+    """Every case's files, keyed ``<case>_<kind>`` as the evaluation reads them."""
+    return {
+        f"{case}_{kind}": f"results/simplification/{case}/{name}"
+        for case in SIMPLIFY_CASES
+        for kind, name in SIMPLIFY_CASE_FILES.items()
+    }
+
+
+def simplify_report_tables():
+    tables = ("targets", "metrics", "stats")
+    return expand("results/simplification/{table}.csv", table=tables) if SIMPLIFY_CASES else []
+
+
+def simplify_report_figures():
+    names = ("comparison", "loss_curves")
+    return expand("results/simplification/figures/{name}.png", name=names) if SIMPLIFY_CASES else []
+
+
+wildcard_constraints:
+    case="|".join(SIMPLIFY_CASES) or "-",
 
 
 rule simplify_prepare:
@@ -12,7 +85,7 @@ rule simplify_prepare:
         baked_albedo="results/simplification/{case}/baked_albedo.png",
         stats="results/simplification/{case}/stats.csv",
     params:
-        cfg=simplify_params,
+        cfg=simplify_prepare_params,
     log:
         "results/logs/simplify_prepare/{case}.log",
     benchmark:
@@ -36,7 +109,7 @@ rule simplify_optimise:
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
     params:
-        cfg=simplify_params,
+        cfg=simplify_optimise_params,
     log:
         "results/logs/simplify_optimise/{case}.log",
     benchmark:
@@ -58,11 +131,18 @@ rule simplify_evaluate:
         metrics_views="results/simplification/metrics_views.csv",
         targets="results/simplification/targets.csv",
         stats="results/simplification/stats.csv",
-        figure=report("results/simplification/figures/comparison.png", category="Simplification"),
-        loss_figure=report("results/simplification/figures/loss_curves.png", category="Simplification"),
+        figure=report(
+            "results/simplification/figures/comparison.png",
+            category="Simplification",
+            labels={"figure": "held-out comparison"},
+        ),
+        loss_figure=report(
+            "results/simplification/figures/loss_curves.png",
+            category="Simplification",
+            labels={"figure": "loss curves"},
+        ),
     params:
-        cfg=simplify_params,
-        cases=config["simplify"]["cases"],
+        cfg=simplify_evaluate_params(),
     log:
         "results/logs/simplify_evaluate/simplify_evaluate.log",
     benchmark:

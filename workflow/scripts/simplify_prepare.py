@@ -1,8 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.mitsuba_setup import require_mitsuba
-from neurender.simplify.stage import prepare_case
+from neurender.jobs import run
+from neurender.simplify import jobs
 
-log_to_file(snakemake.log[0])
-cfg = snakemake.params.cfg
-mi, _ = require_mitsuba(cfg["device"])
-prepare_case(snakemake.wildcards.case, cfg, mi, dict(snakemake.output.items()))
+run(snakemake, jobs.simplify_prepare)

@@ -18,16 +18,9 @@ import math
 
 import torch
 
+from neurender.metaball import THRESHOLD, Scene
 from neurender.metaballs.raymarch import GBuffers
-from neurender.metaballs.scenes import (
-    FOV_DEG,
-    MAX_DEPTH,
-    THRESHOLD,
-    Scene,
-    normalised_depth,
-    pixel_rays,
-    project,
-)
+from neurender.metaballs.scenes import FOV_DEG, MAX_DEPTH, normalised_depth, pixel_rays, project
 
 # Floor of 1 - G in ``inflated_radii``: a ball buried in its neighbours' field grows at most
 # 1 / sqrt(0.3) = 1.8 times instead of without bound.

@@ -26,10 +26,10 @@ from torch import nn
 from torch.utils.data import Dataset
 
 from neurender import io, train
+from neurender.metaball import Scene
 from neurender.metaballs import ab, inputs
 from neurender.metaballs.data import read_scenes
 from neurender.metaballs.evaluate import NORMAL_FOREGROUND
-from neurender.metaballs.scenes import Scene
 from neurender.nn.pix2pix import NLayerDiscriminator, UnetGenerator, init_weights
 
 log = logging.getLogger(__name__)

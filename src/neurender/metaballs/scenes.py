@@ -10,36 +10,15 @@ surface at ``F = THRESHOLD``.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import torch
 
+from neurender.metaball import Scene
+
 FOV_DEG = 30.0
 MIN_DEPTH = 7.0
 MAX_DEPTH = 25.0
-THRESHOLD = 1.0
-
-
-@dataclasses.dataclass
-class Scene:
-    """Metaballs in view space.
-
-    Attributes:
-        centres: ``(B, 3)`` float positions.
-        radii: ``(B,)`` size parameters ``r`` (an isolated ball is a sphere of radius r).
-        colours: ``(B, 3)`` linear RGB in [0, 1].
-    """
-
-    centres: torch.Tensor
-    radii: torch.Tensor
-    colours: torch.Tensor
-
-    def __len__(self) -> int:
-        return len(self.radii)
-
-    def to(self, dtype: torch.dtype) -> Scene:
-        return Scene(self.centres.to(dtype), self.radii.to(dtype), self.colours.to(dtype))
 
 
 def sample_scene(

@@ -24,7 +24,7 @@ import numpy as np
 import trimesh
 from pyfastnoiselite.pyfastnoiselite import FastNoiseLite, FractalType, NoiseType
 
-from neurender.prt.geometry_image import vertex_normals
+from neurender.geometry import vertex_normals
 
 PRIMITIVES = ("ellipsoid", "box", "cylinder")
 

@@ -24,14 +24,14 @@ from types import ModuleType
 
 import numpy as np
 
+from neurender.camera import Camera, pixel_rays
 from neurender.ndr.objects import ProceduralObject
-from neurender.prt.transfer import embree_scene
-from neurender.simplify.cameras import View, pixel_rays
+from neurender.raytrace import embree_scene
 
 
-def camera(distance: float, fov: float) -> View:
-    """The fixed NDR camera (no point light: the ``light`` field is unused)."""
-    return View((0.0, 0.0, float(distance)), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), fov, 0.0, 0.0)
+def camera(distance: float, fov: float) -> Camera:
+    """The fixed NDR camera."""
+    return Camera((0.0, 0.0, float(distance)), (0.0, 0.0, 0.0), fov)
 
 
 def _mesh(mi: ModuleType, obj: ProceduralObject, bsdf: dict):
@@ -66,7 +66,7 @@ def shading_maps(
     mi: ModuleType,
     obj: ProceduralObject,
     environment: np.ndarray,
-    view: View,
+    view: Camera,
     width: int,
     spp: int,
     seed: int,
@@ -114,7 +114,7 @@ def shading_maps(
     return out
 
 
-def g_buffers(obj: ProceduralObject, view: View, width: int) -> dict[str, np.ndarray]:
+def g_buffers(obj: ProceduralObject, view: Camera, width: int) -> dict[str, np.ndarray]:
     """Screen-space buffers at pixel centres, row 0 at the top.
 
     Returns float32 arrays: ``normal`` ``(W, W, 3)`` unit view-space shading normals (0 off

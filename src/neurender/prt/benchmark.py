@@ -16,9 +16,10 @@ import pandas as pd
 import scipy.ndimage
 
 from neurender import io
+from neurender.geometry import grid_faces, grid_normals
 from neurender.prt import transfer
 from neurender.prt.data import ray_offset
-from neurender.prt.geometry_image import grid_faces, grid_normals
+from neurender.raytrace import occluded
 from neurender.rng import stable_seed
 
 
@@ -72,9 +73,7 @@ def stage_vs_embree(
     t_stage = t_embree = np.inf
     for _ in range(repeats):
         t_stage = min(t_stage, _seconds(stage))
-        t_embree = min(
-            t_embree, _seconds(lambda: transfer.occluded(p, faces, origins, dirs, threads))
-        )
+        t_embree = min(t_embree, _seconds(lambda: occluded(p, faces, origins, dirs, threads)))
     return t_stage, t_embree, rays
 
 

@@ -25,14 +25,12 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender import io, lights, sh
+from neurender.geometry import grid_faces
 from neurender.plots import plt, save_figure
 from neurender.prt import deform, objects, transfer
-from neurender.prt.geometry_image import (
-    build_geometry_image,
-    grid_faces,
-    reconstruction_error,
-)
+from neurender.prt.geometry_image import build_geometry_image, reconstruction_error
 from neurender.rng import stable_seed
+from neurender.shapes import BLENDSHAPES
 
 log = logging.getLogger(__name__)
 
@@ -89,7 +87,7 @@ def make_geometry_image(
     if gim.flipped:
         raise RuntimeError(f"object {name}: harmonic map still has {gim.flipped} flipped triangles")
     rest = gim.resample(mesh.faces, mesh.vertices)
-    names = sorted(mesh.blendshapes, key=objects.BLENDSHAPES.index) if mesh.blendshapes else []
+    names = sorted(mesh.blendshapes, key=BLENDSHAPES.index) if mesh.blendshapes else []
     deltas = (
         np.stack([gim.resample(mesh.faces, mesh.blendshapes[b]) for b in names])
         if names

@@ -24,10 +24,10 @@ import pandas as pd
 import torch
 
 from neurender import io, metrics
+from neurender.geometry import grid_faces
 from neurender.plots import plt, save_figure
 from neurender.prt import render, transfer
 from neurender.prt.data import ray_offset, read_sh_light
-from neurender.prt.geometry_image import grid_faces
 from neurender.prt.model import MATERIALS, DeepPRT, MoMoPRT, Split, load_split
 from neurender.rng import stable_seed
 

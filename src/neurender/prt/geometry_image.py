@@ -15,6 +15,8 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from neurender.geometry import grid_faces
+
 # Corners of the square, counter-clockwise, matching a counter-clockwise boundary loop.
 _SQUARE_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -160,40 +162,6 @@ def build_geometry_image(vertices: np.ndarray, faces: np.ndarray, n: int) -> Geo
     bary = np.clip(bary, 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
     return GeometryImage(uv=uv, face=face, bary=bary, n=n, method=method, flipped=flipped)
-
-
-def grid_faces(n: int) -> np.ndarray:
-    """Triangles of the ``n x n`` grid mesh ``(2 (n-1)^2, 3)``, counter-clockwise in uv."""
-    idx = np.arange(n * n).reshape(n, n)
-    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
-    c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
-    return np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
-
-
-def vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals ``(V, 3)`` of a triangle mesh ``(V, 3)``, ``(F, 3)``."""
-    p = positions.reshape(-1, 3)
-    fn = np.cross(p[faces[:, 1]] - p[faces[:, 0]], p[faces[:, 2]] - p[faces[:, 0]])
-    corners = faces.ravel()
-    normals = np.stack([np.bincount(corners, np.repeat(fn[:, c], 3), len(p)) for c in range(3)], 1)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.maximum(length, 1e-20)
-
-
-def grid_normals(positions: np.ndarray) -> np.ndarray:
-    """Unit normals ``(n, n, 3)`` of a geometry image ``(n, n, 3)`` from its grid mesh.
-
-    A square corner of the image has only one or two grid triangles, and they are
-    nearly degenerate where a smooth boundary was pinned to a 90-degree corner; the four
-    corner vertices therefore take the normal of their diagonal neighbour.
-    """
-    n = positions.shape[0]
-    normals = vertex_normals(positions.reshape(-1, 3).astype(np.float64), grid_faces(n)).reshape(
-        n, n, 3
-    )
-    for i, j in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
-        normals[i, j] = normals[1 if i == 0 else -2, 1 if j == 0 else -2]
-    return normals
 
 
 def reconstruction_error(

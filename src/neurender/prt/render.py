@@ -19,8 +19,8 @@ import math
 import numpy as np
 
 from neurender import sh
-from neurender.prt.geometry_image import grid_faces, grid_normals
-from neurender.prt.transfer import embree_scene
+from neurender.geometry import grid_faces, grid_normals
+from neurender.raytrace import embree_scene
 
 
 def phong_zonal(exponent: float, n_bands: int) -> np.ndarray:

@@ -23,48 +23,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from embreex import rtcore_scene
-from embreex.mesh_construction import TriangleMesh
 from threadpoolctl import threadpool_limits
 
 from neurender import sh
-from neurender.prt.geometry_image import grid_normals
-
-
-def embree_scene(vertices: np.ndarray, faces: np.ndarray) -> rtcore_scene.EmbreeScene:
-    """An Embree scene of one triangle mesh ``(V, 3)``, ``(F, 3)``, its BVH already built."""
-    scene = rtcore_scene.EmbreeScene()
-    TriangleMesh(
-        scene, np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.int32)
-    )
-    probe = np.zeros((1, 3), np.float32)
-    scene.run(probe, probe + np.float32([0, 0, 1]), query="OCCLUDED")  # builds the BVH once
-    return scene
-
-
-def occluded(
-    vertices: np.ndarray, faces: np.ndarray, origins: np.ndarray, dirs: np.ndarray, threads: int = 1
-) -> np.ndarray:
-    """Embree occlusion test of rays against a triangle mesh.
-
-    Args:
-        vertices: ``(V, 3)`` mesh positions; faces: ``(F, 3)`` triangles.
-        origins, dirs: ``(R, 3)`` rays (dirs need not be unit); rays run to infinity.
-        threads: rays are split into this many contiguous chunks traced concurrently
-            (Embree's ``run`` releases the GIL).
-
-    Returns:
-        ``(R,)`` bool, True where the ray hits the mesh.
-    """
-    scene = embree_scene(vertices, faces)
-    origins = np.ascontiguousarray(origins, np.float32)
-    dirs = np.ascontiguousarray(dirs, np.float32)
-    bounds = np.linspace(0, len(origins), max(threads, 1) + 1).astype(int)
-    with ThreadPoolExecutor(max(threads, 1)) as pool:
-        parts = pool.map(
-            lambda ab: scene.run(origins[ab[0] : ab[1]], dirs[ab[0] : ab[1]], query="OCCLUDED"),
-            zip(bounds[:-1], bounds[1:], strict=True),
-        )
-        return np.concatenate(list(parts)) != -1
+from neurender.geometry import grid_normals
+from neurender.raytrace import embree_scene
 
 
 class DirectionSets:
@@ -133,7 +96,7 @@ def vertex_transfer(
     """Trace and project the transfer of vertices that share one direction set (one thread).
 
     Args:
-        scene: Embree scene of the mesh (:func:`embree_scene`).
+        scene: Embree scene of the mesh (:func:`neurender.raytrace.embree_scene`).
         positions, normals: ``(N, 3)`` float32 vertices and unit normals.
         dirs: ``(S, 3)`` float32 directions; basis: ``(S, K)`` their SH values.
         weight: solid angle per direction (``4 pi / S``).
@@ -170,7 +133,7 @@ def frame_transfer(
 
     Args:
         positions: ``(n, n, 3)`` geometry image of the frame.
-        faces: grid-mesh triangles (:func:`neurender.prt.geometry_image.grid_faces`).
+        faces: grid-mesh triangles (:func:`neurender.geometry.grid_faces`).
         sets: direction sets; each vertex draws one at random from ``rng``.
         offset: ray origin offset, world units.
         light: ``(K, 3)`` SH light for the glossy transferred radiance, or ``None``.

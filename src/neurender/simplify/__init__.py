@@ -1,2 +1,22 @@
 """Appearance-driven simplification (Hasselgren et al. 2021): a low-polygon mesh with
-textures, optimised through Mitsuba 3 to match a reference renderer's images."""
+textures, optimised through Mitsuba 3 to match a reference renderer's images.
+
+This module names what the workflow's rules refer to; it imports nothing heavy, so the
+Snakefile can read it when it builds the DAG.
+"""
+
+#: The built-in use cases (paper 4.1: the detailed head; 4.5: a metaball implicit surface).
+CASES = ("head", "metaballs")
+
+CASE_FILES = {
+    "lowpoly": "lowpoly.npz",
+    "baked_normal": "baked_normal.png",
+    "baked_albedo": "baked_albedo.png",
+    "stats": "stats.csv",
+    "test_views": "views_test.csv",
+    "test_images": "reference_test.exr",
+    "mesh": "optimised.npz",
+    "normal": "optimised_normal.png",
+    "albedo": "optimised_albedo.png",
+    "loss": "loss.csv",
+}

@@ -1,26 +1,45 @@
-"""The two reference assets of the simplification stage (paper 4.1 and 4.5).
+"""The reference assets of the simplification stage (paper 4.1 and 4.5).
 
-* ``head``: the DeepPRT face relief (:func:`neurender.prt.objects.head_mesh`) with skin
+* ``head``: the DeepPRT face relief (:func:`neurender.shapes.head_mesh`) with skin
   detail (forehead wrinkles, crow's feet, pores) far finer than a 1-5 % decimation can keep;
-  an open disk-topology surface facing +z, about 2 x 2.6 units, y up.
+  an open disk-topology surface facing +z, about 2 x 2.6 units, y up; grey Lambertian,
+  rendered by Mitsuba.
 * ``metaballs``: a blob creature of coloured metaballs centred at the origin, an implicit
-  surface ``F = 1`` of :mod:`neurender.metaballs.raymarch`, rendered by its own ray marcher.
+  surface ``F = 1`` of :mod:`neurender.metaball`, rendered by its own ray marcher
+  (:mod:`neurender.simplify.implicit`).
 
-World space is right-handed, y up, units are the assets' own (no physical scale).
+An :class:`Asset` is what the stage needs of either: the detailed triangle surface that
+QEM and the classic baker start from, the reference renderer, the colour and normal the
+baker reads at a surface point, and where the cameras may stand. World space is
+right-handed, y up, units are the assets' own (no physical scale).
 """
 
 from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from types import ModuleType
 
 import numpy as np
 import torch
 import trimesh
 
-from neurender.metaballs.scenes import Scene
-from neurender.prt.objects import head_mesh
+from neurender import mitsuba_setup
+from neurender.metaball import Scene, field, surface_attributes
 from neurender.rng import stable_seed
+from neurender.shapes import head_mesh
+from neurender.simplify import CASES, implicit, mesh_ops, render
+from neurender.simplify.bake import AttributeFn
+from neurender.simplify.views import View
 
-ASSETS = ("head", "metaballs")
 CREATURE_RADIUS = 1.7
+HEAD_ALBEDO = 0.8
+#: Camera azimuth and elevation ranges in degrees: an open relief is seen from its front
+#: half-space, a closed object from all around.
+VIEW_RANGES = {
+    "front": ((-80.0, 80.0), (-35.0, 45.0)),
+    "all_around": ((-180.0, 180.0), (-60.0, 70.0)),
+}
 
 
 def skin_detail(x: np.ndarray, y: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -67,3 +86,108 @@ def metaball_creature(count: int, seed: int) -> Scene:
     # centre where neighbours add to the field).
     scale = CREATURE_RADIUS / float((centres.norm(dim=1) + 1.3 * radii).max())
     return Scene(centres * scale, radii * scale, u[:, 4:7] * 0.8 + 0.1)
+
+
+@dataclasses.dataclass
+class Asset:
+    """A detailed asset as the stage sees it.
+
+    Attributes:
+        vertices, faces: ``(V, 3)``, ``(F, 3)`` detailed surface (QEM and the baker start here).
+        triangles: the simplified mesh's triangle budget.
+        views: a key of :data:`VIEW_RANGES`.
+        colour_fn, normal_fn: what the classic baker reads at a detailed-surface hit
+            (None: no colour map; the detailed mesh's interpolated vertex normals).
+        references: ``(mi, views, split, cfg) -> (N, W, W, 4)`` reference renders.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    triangles: int
+    views: str
+    colour_fn: AttributeFn | None
+    normal_fn: AttributeFn | None
+    references: Callable[[ModuleType, list[View], str, dict], np.ndarray]
+
+
+def head_asset(cfg: dict) -> Asset:
+    """The detailed head, rendered by Mitsuba (``reference_spp`` for training views,
+    ``test_spp`` for held-out ones)."""
+    detail = detailed_head(cfg["head_vertices"], cfg["seed"])
+
+    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+        shape = mitsuba_setup.mesh(
+            mi, detail.vertices, detail.faces, render.material(mi, HEAD_ALBEDO)
+        )
+        spp = cfg["test_spp"] if split == "test" else cfg["reference_spp"]
+        seed = cfg["seed"] + 7919 * (split == "test")
+        return render.render_views(
+            mi, shape, views, cfg["resolution"], spp, cfg["intensity"], seed, f"head {split}"
+        )
+
+    return Asset(
+        vertices=np.asarray(detail.vertices),
+        faces=np.asarray(detail.faces),
+        triangles=cfg["head_triangles"],
+        views="front",
+        colour_fn=None,
+        normal_fn=None,
+        references=references,
+    )
+
+
+def metaball_asset(cfg: dict) -> Asset:
+    """The metaball creature: its marching-cubes mesh for QEM and the baker, the analytic
+    colour and normal of the field for the baker, the ray marcher for the references."""
+    balls = metaball_creature(cfg["metaball_count"], cfg["seed"])
+    margin = float(balls.radii.max()) * 2.5
+    lo = balls.centres.min(0).values.numpy() - margin
+    hi = balls.centres.max(0).values.numpy() + margin
+    vertices, faces = mesh_ops.implicit_mesh(
+        lambda p: field(torch.from_numpy(p), balls)[0].numpy(),
+        (lo, hi),
+        cfg["metaball_grid"],
+        1.0,
+    )
+
+    def colour_fn(points, face, bary):
+        return surface_attributes(torch.from_numpy(points), balls)[0].numpy()
+
+    def normal_fn(points, face, bary):
+        return surface_attributes(torch.from_numpy(points), balls)[1].numpy()
+
+    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+        # Held-out references get 4x the sub-pixel rays: their coverage is then close to
+        # continuous, like Mitsuba's, and the silhouette metric is not quantised.
+        ss = cfg["supersample"] * (2 if split == "test" else 1)
+        return np.stack(
+            [
+                implicit.render_implicit(balls, v, cfg["resolution"], ss, cfg["intensity"])
+                for v in views
+            ]
+        )
+
+    return Asset(
+        vertices=vertices,
+        faces=faces,
+        triangles=cfg["metaball_triangles"],
+        views="all_around",
+        colour_fn=colour_fn,
+        normal_fn=normal_fn,
+        references=references,
+    )
+
+
+def constant_albedo(case: str) -> float | None:
+    """The grey albedo of a case whose material is uniform (the head); None where the
+    colour varies and is baked into a texture."""
+    return HEAD_ALBEDO if case == "head" else None
+
+
+def load(case: str, cfg: dict) -> Asset:
+    """The asset of a use case (one of :data:`neurender.simplify.CASES`)."""
+    if case == "head":
+        return head_asset(cfg)
+    if case == "metaballs":
+        return metaball_asset(cfg)
+    raise KeyError(f"simplification case {case!r}: expected one of {CASES}")

@@ -13,12 +13,11 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-import embreex.mesh_construction
-import embreex.rtcore_scene
 import numpy as np
 import scipy.ndimage
 
-from neurender.prt.geometry_image import vertex_normals
+from neurender.geometry import vertex_normals
+from neurender.raytrace import embree_scene, first_hits
 from neurender.simplify.mesh_ops import LowPolyMesh
 
 AttributeFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -89,24 +88,16 @@ def cast_to_detail(
     Returns:
         hit mask ``(K,)``, face index ``(K,)`` and barycentrics ``(K, 3)`` of the hits.
     """
-    scene = embreex.rtcore_scene.EmbreeScene()
-    embreex.mesh_construction.TriangleMesh(
-        scene, vertices.astype(np.float32), faces.astype(np.int32)
-    )
+    scene = embree_scene(vertices, faces)
     best = np.full(len(origins), np.inf)
     face = np.full(len(origins), -1)
     bary = np.zeros((len(origins), 3))
     for sign in (1.0, -1.0):
-        out = scene.run(
-            np.ascontiguousarray(origins, dtype=np.float32),
-            np.ascontiguousarray(sign * dirs, dtype=np.float32),
-            output=1,
-        )
-        hit = (out["primID"] >= 0) & (out["tfar"] < best)
-        best[hit] = out["tfar"][hit]
-        face[hit] = out["primID"][hit]
-        u, v = out["u"][hit], out["v"][hit]
-        bary[hit] = np.column_stack([1 - u - v, u, v])
+        hits = first_hits(scene, faces, origins, sign * dirs)
+        closer = hits.distance < best  # False for misses (distance inf)
+        best[closer] = hits.distance[closer]
+        face[closer] = hits.face[closer]
+        bary[closer] = hits.bary[closer[hits.mask]]
     return face >= 0, face, bary
 
 

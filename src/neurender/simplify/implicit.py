@@ -1,4 +1,4 @@
-"""The metaball reference renderer: the ray marcher of :mod:`neurender.metaballs.raymarch`
+"""The metaball reference renderer: the ray marcher of :mod:`neurender.metaball`
 with a perspective camera, Lambertian shading and ray-marched shadows from a point light.
 
 It is the "other renderer" of paper 4.5: the optimisation only ever sees its images. Its
@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from neurender.metaballs.raymarch import march, surface_attributes
-from neurender.metaballs.scenes import Scene
-from neurender.simplify.cameras import View, pixel_rays
+from neurender.camera import pixel_rays
+from neurender.metaball import Scene, march, surface_attributes
+from neurender.simplify.views import View
 
 SHADOW_OFFSET = 0.03  # along the normal, > the marcher's minimum step, << ball radii
 

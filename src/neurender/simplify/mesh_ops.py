@@ -15,7 +15,7 @@ import numpy as np
 import xatlas
 from skimage.measure import marching_cubes
 
-from neurender.prt.geometry_image import vertex_normals
+from neurender.geometry import vertex_normals
 
 
 @dataclasses.dataclass

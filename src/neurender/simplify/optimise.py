@@ -22,9 +22,9 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender.simplify import terminator
-from neurender.simplify.cameras import View
 from neurender.simplify.mesh_ops import LowPolyMesh
 from neurender.simplify.render import atlas_shape, material, scene_dict, set_view
+from neurender.simplify.views import View
 
 NORMAL_KEY = "shape.bsdf.normalmap.data"
 ALBEDO_KEY = "shape.bsdf.nested_bsdf.reflectance.data"
@@ -52,6 +52,15 @@ class OptimiseConfig:
     optimise_albedo: bool = False
     laplacian_scale: float = 0.25  # lambda_0 = scale * L_image / L_delta (paper 5.3)
     laplacian_min_fraction: float = 0.02
+
+    @classmethod
+    def from_stage(cls, cfg: dict, **overrides) -> OptimiseConfig:
+        """The optimiser's keys of the ``simplify`` config (``resolution`` is the width),
+        plus overrides."""
+        names = {f.name for f in dataclasses.fields(cls)} - {"width"}
+        return cls(
+            width=cfg["resolution"], **{k: v for k, v in cfg.items() if k in names}, **overrides
+        )
 
 
 def laplacian_decay(steps: int) -> float:

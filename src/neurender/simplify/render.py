@@ -15,9 +15,9 @@ from types import ModuleType
 import numpy as np
 from tqdm import tqdm
 
-from neurender.prt.geometry_image import vertex_normals
-from neurender.simplify.cameras import View
+from neurender import camera, mitsuba_setup
 from neurender.simplify.mesh_ops import LowPolyMesh
+from neurender.simplify.views import View
 
 
 def bitmap(mi: ModuleType, data: np.ndarray) -> dict:
@@ -44,44 +44,10 @@ def material(
     return {"type": "normalmap", "normalmap": bitmap(mi, normal_map), "bsdf": bsdf}
 
 
-def mesh_shape(
-    mi: ModuleType,
-    positions: np.ndarray,
-    faces: np.ndarray,
-    bsdf: dict,
-    uvs: np.ndarray | None = None,
-    normals: np.ndarray | None = None,
-    name: str = "mesh",
-):
-    """A Mitsuba mesh from ``(V, 3)`` positions, ``(F, 3)`` faces, optional ``(V, 2)`` UVs
-    and ``(V, 3)`` unit vertex normals (default: the area-weighted ones of
-    :func:`neurender.prt.geometry_image.vertex_normals` of this mesh)."""
-    props = mi.Properties()
-    props["bsdf"] = mi.load_dict(bsdf)
-    mesh = mi.Mesh(
-        name,
-        len(positions),
-        len(faces),
-        has_vertex_normals=True,
-        has_vertex_texcoords=uvs is not None,
-        props=props,
-    )
-    params = mi.traverse(mesh)
-    params["vertex_positions"] = np.ravel(positions).astype(np.float32)
-    params["faces"] = np.ravel(faces).astype(np.uint32)
-    if normals is None:
-        normals = vertex_normals(positions, faces)
-    params["vertex_normals"] = np.ravel(normals).astype(np.float32)
-    if uvs is not None:
-        params["vertex_texcoords"] = np.ravel(uvs).astype(np.float32)
-    params.update()
-    return mesh
-
-
 def atlas_shape(mi: ModuleType, low: LowPolyMesh, bsdf: dict, positions: np.ndarray | None = None):
     """The atlas mesh of ``low`` (welded ``positions (V, 3)``, default its own) with smooth
     normals across UV seams (:meth:`LowPolyMesh.atlas_normals`)."""
-    return mesh_shape(
+    return mitsuba_setup.mesh(
         mi,
         low.atlas_positions(positions),
         low.uv_faces,
@@ -89,10 +55,6 @@ def atlas_shape(mi: ModuleType, low: LowPolyMesh, bsdf: dict, positions: np.ndar
         low.uvs,
         low.atlas_normals(positions),
     )
-
-
-def look_at(mi: ModuleType, view: View):
-    return mi.ScalarTransform4f().look_at(origin=view.origin, target=view.target, up=[0, 1, 0])
 
 
 def scene_dict(
@@ -112,20 +74,7 @@ def scene_dict(
     return {
         "type": "scene",
         "integrator": integrator or {"type": "direct"},
-        "sensor": {
-            "type": "perspective",
-            "fov": view.fov,
-            "to_world": look_at(mi, view),
-            "film": {
-                "type": "hdrfilm",
-                "width": width,
-                "height": width,
-                "rfilter": {"type": "box"},
-                "pixel_format": "rgba" if alpha else "rgb",
-                "sample_border": sample_border,
-            },
-            "sampler": {"type": "independent", "sample_count": spp},
-        },
+        "sensor": camera.sensor(mi, view, width, spp, alpha, sample_border),
         "light": {"type": "point", "position": list(view.light), "intensity": intensity},
         "shape": shape,
     }
@@ -133,7 +82,7 @@ def scene_dict(
 
 def set_view(mi: ModuleType, params, view: View) -> None:
     """Move the sensor and the light of a loaded scene to ``view`` (no update call)."""
-    params["sensor.to_world"] = mi.Transform4f(look_at(mi, view).matrix)
+    params["sensor.to_world"] = mi.Transform4f(camera.look_at(mi, view).matrix)
     params["light.position"] = mi.Point3f(*view.light)
 
 

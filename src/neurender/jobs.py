@@ -1,0 +1,37 @@
+"""The bridge from a Snakemake rule to its job function.
+
+Every rule of ``workflow/rules/*.smk`` names its files (``input:``, ``output:``), passes the
+config keys it reads as one ``params: cfg=...`` dict (wildcard values included), and runs a
+one-line shim ``workflow/scripts/<rule>.py``::
+
+    from neurender.jobs import run
+    from neurender.prt import jobs
+
+    run(snakemake, jobs.train)
+
+Each method's ``jobs.py`` holds one function per rule with the signature of :data:`Job`,
+so a job can be called from Python (tests, notebooks) with plain dicts exactly as the
+workflow calls it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from neurender.logs import log_to_file
+
+#: ``job(inputs, outputs, params, threads)``: file names by role (a path, or a list of
+#: paths for an ``expand``), the rule's config keys, and its thread count.
+Job = Callable[[Mapping[str, Any], Mapping[str, Any], Mapping[str, Any], int], None]
+
+
+def run(smk: Any, job: Job) -> None:
+    """Run ``job`` for the ``snakemake`` object of a rule's script, logging to its log file."""
+    log_to_file(smk.log[0])
+    job(_files(smk.input), _files(smk.output), smk.params.cfg, smk.threads)
+
+
+def _files(named: Any) -> dict[str, str | list[str]]:
+    """Snakemake's named file list as a plain dict (an ``expand`` entry as a list)."""
+    return {k: v if isinstance(v, str) else list(v) for k, v in named.items()}

@@ -1,0 +1,136 @@
+"""The simplification stage's jobs, one per rule of ``workflow/rules/simplification.smk``.
+
+Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
+``(inputs, outputs, params, threads)``. Use cases: ``head`` (normal-map baking and joint
+simplification of the detailed head, grey Lambertian) and ``metaballs`` (a ray-marched
+implicit surface converted to a textured mesh: albedo and normal maps); see
+:mod:`neurender.simplify.assets`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+
+from neurender import io
+from neurender.mitsuba_setup import require_mitsuba
+from neurender.simplify import (
+    CASE_FILES,
+    assets,
+    bake,
+    evaluate,
+    figures,
+    formats,
+    mesh_ops,
+    summary,
+    views,
+)
+from neurender.simplify.optimise import OptimiseConfig, optimise
+
+
+def case_views(cfg: dict, case: str, split: str, kind: str) -> list[views.View]:
+    """Training or test views of a use case, over the asset's camera range ``kind``."""
+    count = cfg["train_views"] if split == "train" else cfg["test_views"]
+    return views.sample_views(
+        count,
+        cfg["seed"],
+        f"{case}-{split}",
+        cfg["camera_distance"],
+        cfg["fov"],
+        *assets.VIEW_RANGES[kind],
+        cfg["light_distance"],
+        cfg["light_cone"],
+    )
+
+
+def simplify_prepare(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Reference images (train/test EXR + view CSVs), the QEM atlas
+    mesh and the classic bakes of one use case."""
+    started = time.perf_counter()
+    case = params["case"]
+    mi, _ = require_mitsuba(params["device"])
+    asset = assets.load(case, params)
+    for split in ("train", "test"):
+        split_views = case_views(params, case, split, asset.views)
+        formats.write_images(
+            outputs[f"{split}_images"], asset.references(mi, split_views, split, params)
+        )
+        io.write_csv(outputs[f"{split}_views"], views.views_frame(split_views))
+    v, f = mesh_ops.decimate(asset.vertices, asset.faces, asset.triangles)
+    low = mesh_ops.uv_atlas(v, f, params["texture_size"])
+    formats.save_lowpoly(outputs["lowpoly"], low)
+    normal_map, colour_map = bake.bake(
+        low, asset.vertices, asset.faces, params["texture_size"], asset.colour_fn, asset.normal_fn
+    )
+    formats.write_texture(outputs["baked_normal"], normal_map)
+    albedo = assets.constant_albedo(case)
+    formats.write_texture(
+        outputs["baked_albedo"],
+        np.full_like(normal_map, albedo) if colour_map is None else colour_map,
+    )
+    stats = {
+        "reference_triangles": len(asset.faces),
+        "lowpoly_triangles": len(f),
+        "triangle_fraction": len(f) / len(asset.faces),
+        "texture_size": params["texture_size"],
+        "prepare_seconds": time.perf_counter() - started,
+    }
+    io.write_csv(
+        outputs["stats"],
+        pd.DataFrame([{"case": case, "quantity": k, "value": v} for k, v in stats.items()]),
+    )
+
+
+def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The QEM mesh's vertices and normal map (and, where the colour
+    varies, its albedo map) optimised through Mitsuba against the training references."""
+    case = params["case"]
+    mi, dr = require_mitsuba(params["device"])
+    # One Dr.Jit thread makes the gradient scatter-adds, and so the result, deterministic.
+    dr.set_thread_count(threads)
+    low = formats.load_lowpoly(inputs["lowpoly"])
+    train_views = views.views_from_frame(io.read_csv(inputs["train_views"]))
+    references = formats.read_images(inputs["train_images"])
+    size = params["texture_size"]
+    flat = np.broadcast_to([0.5, 0.5, 1.0], (size, size, 3)).copy()
+    constant = assets.constant_albedo(case)
+    albedo = constant if constant is not None else np.full((size, size, 3), 0.5)
+    settings = OptimiseConfig.from_stage(params, optimise_albedo=constant is None)
+    positions, normal_map, albedo_map, loss = optimise(
+        mi, dr, low, flat, albedo, references, train_views, settings
+    )
+    if albedo_map is None:
+        albedo_map = np.full_like(normal_map, constant)
+    io.save_npz(outputs["mesh"], positions=positions)
+    formats.write_texture(outputs["normal"], normal_map)
+    formats.write_texture(outputs["albedo"], albedo_map)
+    loss.insert(0, "case", case)
+    io.write_csv(outputs["loss"], loss)
+    formats.write_obj(outputs["obj"], low, positions, albedo_map, case)
+
+
+def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant of every case rendered from its held-out views;
+    the metrics, figures, per-case statistics with the stage's timings, and the targets."""
+    started = time.perf_counter()
+    mi, dr = require_mitsuba(params["device"])
+    rows, crops = [], {}
+    for case in params["cases"]:
+        files = {kind: inputs[f"{case}_{kind}"] for kind in CASE_FILES}
+        case_rows, crops[case] = evaluate.evaluate_case(
+            mi, dr, case, files, params, assets.constant_albedo(case)
+        )
+        rows += case_rows
+    frame = pd.DataFrame(rows)
+    io.write_csv(outputs["metrics_views"], frame)
+    keys = ["method", "dataset", "model", "split", "metric"]
+    io.write_csv(outputs["metrics"], frame.groupby(keys, sort=False)["value"].mean().reset_index())
+    figures.comparison_figure(crops, outputs["figure"])
+    losses = [io.read_csv(inputs[f"{case}_loss"]) for case in params["cases"]]
+    figures.loss_figure(losses, outputs["loss_figure"])
+    stats = pd.concat([io.read_csv(inputs[f"{case}_stats"]) for case in params["cases"]])
+    stats = summary.with_timings(stats, losses, time.perf_counter() - started, params["threads"])
+    io.write_csv(outputs["stats"], stats)
+    io.write_csv(outputs["targets"], summary.targets(frame, stats))

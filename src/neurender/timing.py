@@ -1,0 +1,32 @@
+"""Wall-clock timing of one operation, for the timing tables (never for tests).
+
+A 2-core machine's timings have outliers, so every figure is a median over repeats after
+uncounted warm-up calls; on a GPU the clock stops only when the queued kernels are done.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import torch
+
+
+def timed(
+    fn: Callable[..., Any], *args: Any, repeats: int = 1, warmup: int = 0, **kwargs: Any
+) -> tuple[Any, float]:
+    """``fn(*args, **kwargs)``'s last result and its median wall time in seconds over
+    ``repeats`` calls, after ``warmup`` calls that are not counted."""
+    sync = torch.cuda.synchronize if torch.cuda.is_available() else lambda: None
+    times = []
+    out = None
+    for k in range(warmup + repeats):
+        sync()
+        start = time.perf_counter()
+        out = fn(*args, **kwargs)
+        sync()
+        if k >= warmup:
+            times.append(time.perf_counter() - start)
+    return out, float(np.median(times))
