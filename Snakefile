@@ -10,7 +10,6 @@ configfile: "config/config.yaml"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/prt.smk"
-include: "workflow/rules/prt_model.smk"
 include: "workflow/rules/ndr.smk"
 include: "workflow/rules/metaballs.smk"
 include: "workflow/rules/simplification.smk"

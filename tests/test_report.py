@@ -1,7 +1,8 @@
 import numpy as np
 import pandas as pd
 
-from neurender import io, report
+from neurender import io
+from neurender.report import build as report
 
 
 def test_report_shows_measurements_and_marks_unrun_sections(tmp_path):

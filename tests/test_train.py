@@ -145,3 +145,110 @@ def test_train_config_from_stage_picks_training_keys():
     cfg = {"epochs": 3, "lr": 0.01, "widths": [8], "seed": 4, "device": "cpu", "threads": 9}
     c = train.TrainConfig.from_stage(cfg, threads=2, betas=(0.5, 0.999))
     assert (c.epochs, c.lr, c.seed, c.threads, c.betas) == (3, 0.01, 4, 2, (0.5, 0.999))
+
+
+def _interrupted_run(tmp_path, cfg, data_key=""):
+    """A run stopped by an exception after its first epoch: its resume file stays."""
+    train_set, val_set = _problem()
+    calls = {"n": 0}
+
+    def interrupting_loss(model, batch):
+        calls["n"] += 1
+        if calls["n"] > 4 + 1:  # 4 train steps + 1 val batch: the first epoch completes
+            raise KeyboardInterrupt
+        return _loss(model, batch)
+
+    with pytest.raises(KeyboardInterrupt):
+        train.fit(
+            _model(),
+            train_set,
+            val_set,
+            interrupting_loss,
+            cfg,
+            tmp_path / "r.pt",
+            tmp_path / "r.csv",
+            data_key=data_key,
+        )
+    return train.resume_path_for(tmp_path / "r.pt")
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"data_key": "other data"},
+        {"config": {"lr": 0.01}},
+        {"model": torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.Linear(4, 1))},
+    ],
+    ids=["data", "config", "architecture"],
+)
+def test_a_stale_resume_file_is_discarded_with_a_log_line(tmp_path, caplog, change):
+    resume = _interrupted_run(tmp_path, _cfg(3), data_key="data v1")
+    assert resume.exists()
+    train_set, val_set = _problem()
+    cfg = train.TrainConfig(**{**vars(_cfg(3)), **change.get("config", {})})
+    with caplog.at_level("WARNING", logger="neurender.train"):
+        train.fit(
+            change.get("model", _model()),
+            train_set,
+            val_set,
+            _loss,
+            cfg,
+            tmp_path / "r.pt",
+            tmp_path / "r.csv",
+            data_key=change.get("data_key", "data v1"),
+        )
+    assert "discarding stale resume file" in caplog.text and str(resume) in caplog.text
+    history = train.load_checkpoint(tmp_path / "r.pt")["history"]
+    assert [h["epoch"] for h in history] == [1, 2, 3]  # trained from scratch
+
+
+def test_a_matching_resume_file_is_continued(tmp_path, caplog):
+    _interrupted_run(tmp_path, _cfg(3), data_key="data v1")
+    train_set, val_set = _problem()
+    with caplog.at_level("INFO", logger="neurender.train"):
+        train.fit(
+            _model(),
+            train_set,
+            val_set,
+            _loss,
+            _cfg(3),
+            tmp_path / "r.pt",
+            tmp_path / "r.csv",
+            data_key="data v1",
+        )
+    assert "resuming from" in caplog.text and "after epoch 1" in caplog.text
+
+
+def test_nan_validation_loss_stops_training_naming_epoch_and_batch(tmp_path):
+    train_set, val_set = _problem()
+
+    def nan_in_eval(model, batch):
+        loss, logs = _loss(model, batch)
+        return (loss * float("nan") if not model.training else loss), logs
+
+    with pytest.raises(FloatingPointError, match="validation loss became nan at epoch 1, batch 1"):
+        train.fit(
+            _model(),
+            train_set,
+            val_set,
+            nan_in_eval,
+            _cfg(2),
+            tmp_path / "m.pt",
+            tmp_path / "l.csv",
+        )
+    assert not (tmp_path / "m.pt").exists()
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
+    train_set, val_set = _problem()
+    cfg = train.TrainConfig(epochs=3, batch_size=8, lr=0.05, seed=3, device="cuda")
+    full = _model()
+    train.fit(full, train_set, val_set, _loss, cfg, tmp_path / "full.pt", tmp_path / "f.csv")
+    _interrupted_run(tmp_path, cfg)
+    resumed = _model()
+    train.fit(resumed, train_set, val_set, _loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+    a = train.load_checkpoint(tmp_path / "full.pt")["last_model"]
+    b = train.load_checkpoint(tmp_path / "r.pt")["last_model"]
+    for k in a:  # dropout draws from the CUDA generator: equal only if it was restored
+        torch.testing.assert_close(a[k], b[k])

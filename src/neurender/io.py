@@ -12,6 +12,7 @@ unsigned integers (C = 1..4: grey, grey+alpha, RGB, RGBA).
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -182,3 +183,18 @@ def load_npz(path: PathLike) -> dict[str, np.ndarray]:
             return {k: data[k] for k in data.files}
     except (OSError, ValueError) as err:
         raise OSError(f"cannot read NPZ file {p}: {err}") from err
+
+
+def checksum(paths: Sequence[PathLike]) -> str:
+    """SHA-256 over the contents of files (a folder: every file below it, in sorted order)
+    and their names relative to the given path: a fingerprint of a job's inputs."""
+    digest = hashlib.sha256()
+    for path in map(Path, paths):
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for file in files:
+            _require_file(file, "input")
+            digest.update(str(file.relative_to(path) if path.is_dir() else file.name).encode())
+            with open(file, "rb") as f:
+                for block in iter(lambda f=f: f.read(1 << 20), b""):
+                    digest.update(block)
+    return digest.hexdigest()

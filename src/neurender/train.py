@@ -3,26 +3,27 @@
 * ``device: auto`` picks CUDA when present, else the CPU with ``threads`` torch threads.
 * Fixed seed: weights, shuffling (a generator seeded per epoch) and dropout are
   reproducible, including across an interruption and resume.
-* After every epoch the full state (model, optimiser, scheduler, RNG, history) goes to a
-  resume file beside the output; a rerun continues from the last finished epoch if the
-  training config is unchanged. Snakemake deletes a failed job's declared outputs, so the
-  resume file is deliberately not one of them; it is removed once training completes.
-* Losses are logged as tidy CSV (epoch, split, metric, value); a NaN/inf loss stops
-  training with an error naming the epoch and step.
+* After every epoch the full state (model, optimiser, scheduler, CPU and CUDA RNG,
+  history) goes to a resume file beside the output; a rerun continues from the last
+  finished epoch if the file was written for the same data, architecture and training
+  config (:func:`resume_key`), and discards it with a log line otherwise. Snakemake
+  deletes a failed job's declared outputs, so the resume file is deliberately not one of
+  them; it is removed once training completes.
+* Losses are logged as tidy CSV (epoch, split, metric, value); a NaN/inf training or
+  validation loss stops training with an error naming the epoch and step.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import logging
 import math
-import random
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import torch
 from torch.utils.data import DataLoader, Dataset
@@ -95,13 +96,6 @@ def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
     return device
 
 
-def seed_everything(seed: int) -> None:
-    """Seed Python, numpy and torch (CPU and CUDA)."""
-    random.seed(seed)
-    np.random.seed(seed % 2**32)  # noqa: NPY002 - seeds code that uses the legacy global RNG
-    torch.manual_seed(seed)
-
-
 def to_device(batch: Any, device: torch.device) -> Any:
     """Move tensors in a (nested) batch to ``device``."""
     if isinstance(batch, torch.Tensor):
@@ -137,18 +131,148 @@ def _atomic_torch_save(obj: Any, path: Path) -> None:
         torch.save(obj, tmp)
 
 
-def _evaluate(model, loader, loss_fn, device) -> dict[str, float]:
+def _check_finite(
+    loss: torch.Tensor, what: str, epoch: int, step: int, checkpoint_path, unit: str = "step"
+) -> None:
+    if not torch.isfinite(loss):
+        raise FloatingPointError(
+            f"{what} loss became {loss.item()} at epoch {epoch + 1}, {unit} {step + 1} "
+            f"(checkpoint {checkpoint_path}); lower the learning rate or check the data"
+        )
+
+
+def resume_key(config: TrainConfig, model: torch.nn.Module, data_key: str = "") -> str:
+    """What a resume file must match to be continued: the training config (not the device
+    or threads: a run may resume elsewhere), the model's architecture (its parameter names
+    and shapes) and ``data_key`` (the caller's fingerprint of the training data)."""
+    config_dict = dataclasses.asdict(config)
+    config_dict.pop("device")
+    config_dict.pop("threads")
+    shapes = [(k, tuple(v.shape)) for k, v in model.state_dict().items()]
+    text = repr((sorted(config_dict.items()), shapes, data_key))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@dataclasses.dataclass
+class _Run:
+    """What a training run updates: the model, its optimiser and schedule, the adversary
+    and its optimiser, and the record of finished epochs."""
+
+    model: torch.nn.Module
+    optimizer: torch.optim.Optimizer
+    scheduler: Any
+    adversary: Adversary | None
+    adv_optimizer: torch.optim.Optimizer | None
+    epoch: int = 0
+    best_val: float = math.inf
+    best_state: dict | None = None
+    history: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+
+    def state(self, key: str) -> dict[str, Any]:
+        """Everything a resume needs, RNG states included (CUDA's where it is used)."""
+        state = {
+            "key": key,
+            "model": self.model.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "scheduler": self.scheduler.state_dict(),
+            "torch_rng": torch.get_rng_state(),
+            "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None,
+            "epoch": self.epoch,
+            "best_val": self.best_val,
+            "best_model": self.best_state,
+            "history": self.history,
+        }
+        if self.adversary is not None:
+            state["adversary"] = self.adversary.module.state_dict()
+            state["adversary_optimizer"] = self.adv_optimizer.state_dict()
+        return state
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`state` (loaded onto the CPU; tensors move to the model)."""
+        self.model.load_state_dict(state["model"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.scheduler.load_state_dict(state["scheduler"])
+        torch.set_rng_state(state["torch_rng"])
+        if state["cuda_rng"] is not None and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        if self.adversary is not None:
+            self.adversary.module.load_state_dict(state["adversary"])
+            self.adv_optimizer.load_state_dict(state["adversary_optimizer"])
+        self.epoch, self.best_val = state["epoch"], state["best_val"]
+        self.best_state, self.history = state["best_model"], state["history"]
+
+
+def load_resume(run: _Run, path: Path, key: str) -> None:
+    """Continue ``run`` from the resume file at ``path`` if there is one written for
+    ``key``; a stale one (other data, architecture or config) is discarded with a log line."""
+    if not path.is_file():
+        return
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as err:  # a torn or foreign file: start afresh rather than fail
+        log.warning("discarding unreadable resume file %s (%s)", path, err)
+        path.unlink()
+        return
+    if state.get("key") != key:
+        log.warning(
+            "discarding stale resume file %s: it was written for other data, another "
+            "architecture or another training config",
+            path,
+        )
+        path.unlink()
+        return
+    run.restore(state)
+    log.info("resuming from %s after epoch %d", path, run.epoch)
+
+
+def train_epoch(
+    run: _Run, loader: DataLoader, loss_fn: LossFn, device: torch.device, checkpoint_path
+) -> dict[str, float]:
+    """One pass over ``loader``: a model step per batch, then an adversary step. Returns
+    the mean of every logged value, keys prefixed ``train_``."""
+    run.model.train()
+    if run.adversary is not None:
+        run.adversary.module.train()
+    sums: dict[str, float] = {}
+    for step, batch in enumerate(loader):
+        batch = to_device(batch, device)
+        loss, logs, *aux = loss_fn(run.model, batch)
+        _check_finite(loss, "training", run.epoch, step, checkpoint_path)
+        run.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        run.optimizer.step()
+        run.scheduler.step()
+        if run.adversary is not None:
+            adv_loss, adv_logs = run.adversary.loss_fn(
+                run.adversary.module, batch, aux[0] if aux else None
+            )
+            _check_finite(adv_loss, "adversary", run.epoch, step, checkpoint_path)
+            run.adv_optimizer.zero_grad(set_to_none=True)  # drops what the model's loss left
+            adv_loss.backward()
+            run.adv_optimizer.step()
+            logs = {**logs, "adversary_loss": adv_loss.item(), **adv_logs}
+        for key, value in {"loss": loss.item(), **logs}.items():
+            sums[key] = sums.get(key, 0.0) + float(value)
+    return {f"train_{k}": v / max(len(loader), 1) for k, v in sums.items()}
+
+
+def validate(
+    model, loader: DataLoader, loss_fn: LossFn, device, epoch: int, checkpoint_path
+) -> dict[str, float]:
+    """Sample-weighted mean of every logged value over ``loader`` in eval mode, keys
+    prefixed ``val_``; a non-finite loss stops training naming the epoch and batch."""
     model.eval()
     sums: dict[str, float] = {}
     count = 0
     with torch.no_grad():
-        for batch in loader:
+        for step, batch in enumerate(loader):
             loss, logs, *_ = loss_fn(model, to_device(batch, device))
+            _check_finite(loss, "validation", epoch, step, checkpoint_path, "batch")
             n = len(next(iter(batch.values())) if isinstance(batch, Mapping) else batch[0])
             for key, value in {"loss": loss.item(), **logs}.items():
                 sums[key] = sums.get(key, 0.0) + float(value) * n
             count += n
-    return {k: v / max(count, 1) for k, v in sums.items()}
+    return {f"val_{k}": v / max(count, 1) for k, v in sums.items()}
 
 
 def fit(
@@ -161,6 +285,7 @@ def fit(
     log_path: str | Path,
     extra_state: Mapping[str, Any] | None = None,
     adversary: Adversary | None = None,
+    data_key: str = "",
 ) -> pd.DataFrame:
     """Train ``model`` with Adam and write its final checkpoint and loss log.
 
@@ -176,6 +301,8 @@ def fit(
         extra_state: stored under ``extra`` in the checkpoint (e.g. target normalisation).
         adversary: optional discriminator, trained after every model step and stored in
             the checkpoint as ``adversary``.
+        data_key: a fingerprint of the training data (e.g. :func:`neurender.io.checksum`
+            of the input files); a resume file written for other data is not continued.
 
     Returns:
         The loss history as a tidy data frame.
@@ -193,123 +320,59 @@ def fit(
         adv_optimizer = torch.optim.Adam(
             adversary.module.parameters(), lr=config.lr, betas=config.betas
         )
-    config_dict = dataclasses.asdict(config)
-    config_dict.pop("device")  # the same run may resume on another device
-    config_dict.pop("threads")
+    run = _Run(model, optimizer, scheduler, adversary, adv_optimizer)
+    key = resume_key(config, model, data_key)
     resume_path = resume_path_for(checkpoint_path)
-
-    history: list[dict[str, Any]] = []
-    start_epoch, best_val, best_state = 0, math.inf, None
-    if resume_path.is_file():
-        state = torch.load(resume_path, map_location=device, weights_only=False)
-        if state["config"] == config_dict:
-            model.load_state_dict(state["model"])
-            optimizer.load_state_dict(state["optimizer"])
-            scheduler.load_state_dict(state["scheduler"])
-            torch.set_rng_state(state["torch_rng"])
-            if adversary is not None:
-                adversary.module.load_state_dict(state["adversary"])
-                adv_optimizer.load_state_dict(state["adversary_optimizer"])
-            start_epoch, best_val = state["epoch"], state["best_val"]
-            best_state, history = state["best_model"], state["history"]
-            log.info("resuming %s after epoch %d", checkpoint_path, start_epoch)
-        else:
-            log.info("ignoring %s: it was written with another training config", resume_path)
-
+    load_resume(run, resume_path, key)
     val_loader = (
         DataLoader(val_set, batch_size=config.batch_size, shuffle=False)
         if val_set is not None
         else None
     )
-    epochs = tqdm(
-        range(start_epoch, config.epochs), desc="epochs", file=sys.stderr, mininterval=2.0
-    )
+    epochs = tqdm(range(run.epoch, config.epochs), desc="epochs", file=sys.stderr, mininterval=2)
     for epoch in epochs:
-        model.train()
-        if adversary is not None:
-            adversary.module.train()
+        run.epoch = epoch
+        # A generator per epoch: the order of an epoch does not depend on what came before.
         shuffle = torch.Generator().manual_seed(config.seed * 100_003 + epoch)
         loader = DataLoader(
             train_set, batch_size=config.batch_size, shuffle=True, generator=shuffle
         )
-        sums: dict[str, float] = {}
-        for step, batch in enumerate(loader):
-            batch = to_device(batch, device)
-            loss, logs, *aux = loss_fn(model, batch)
-            _check_finite(loss, "training", epoch, step, checkpoint_path)
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            optimizer.step()
-            scheduler.step()
-            if adversary is not None:
-                adv_loss, adv_logs = adversary.loss_fn(
-                    adversary.module, batch, aux[0] if aux else None
-                )
-                _check_finite(adv_loss, "adversary", epoch, step, checkpoint_path)
-                adv_optimizer.zero_grad(set_to_none=True)  # drops what the model's loss left
-                adv_loss.backward()
-                adv_optimizer.step()
-                logs = {**logs, "adversary_loss": adv_loss.item(), **adv_logs}
-            for key, value in {"loss": loss.item(), **logs}.items():
-                sums[key] = sums.get(key, 0.0) + float(value)
-        row = {f"train_{k}": v / max(steps_per_epoch, 1) for k, v in sums.items()}
+        row = train_epoch(run, loader, loss_fn, device, checkpoint_path)
         if val_loader is not None:
-            row.update(
-                {f"val_{k}": v for k, v in _evaluate(model, val_loader, loss_fn, device).items()}
-            )
-        history.append({"epoch": epoch + 1, **row})
+            row |= validate(model, val_loader, loss_fn, device, epoch, checkpoint_path)
+        run.history.append({"epoch": epoch + 1, **row})
         score = row.get("val_loss", row["train_loss"])
-        if score < best_val:
-            best_val = score
-            best_state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
+        if score < run.best_val:
+            run.best_val = score
+            run.best_state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
         epochs.set_postfix({k: f"{v:.4g}" for k, v in row.items() if k.endswith("loss")})
-        _atomic_torch_save(
-            {
-                "model": model.state_dict(),
-                "optimizer": optimizer.state_dict(),
-                "scheduler": scheduler.state_dict(),
-                "torch_rng": torch.get_rng_state(),
-                "epoch": epoch + 1,
-                "best_val": best_val,
-                "best_model": best_state,
-                "history": history,
-                "config": config_dict,
-                **(
-                    {
-                        "adversary": adversary.module.state_dict(),
-                        "adversary_optimizer": adv_optimizer.state_dict(),
-                    }
-                    if adversary is not None
-                    else {}
-                ),
-            },
-            resume_path,
-        )
-        io.write_csv(log_path, history_frame(history))
-
-    final = {
-        "model": best_state if best_state is not None else model.state_dict(),
-        "last_model": {k: v.detach().cpu() for k, v in model.state_dict().items()},
-        "config": config_dict,
-        "history": history,
-        "best_val": best_val,
-        "extra": dict(extra_state or {}),
-        **({"adversary": adversary.module.state_dict()} if adversary is not None else {}),
-    }
-    _atomic_torch_save(final, Path(checkpoint_path))
-    io.write_csv(log_path, history_frame(history))
+        run.epoch = epoch + 1
+        _atomic_torch_save(run.state(key), resume_path)
+        io.write_csv(log_path, history_frame(run.history))
+    _save_final(run, config, extra_state, Path(checkpoint_path))
+    io.write_csv(log_path, history_frame(run.history))
     resume_path.unlink(missing_ok=True)
-    if best_state is not None:
-        model.load_state_dict(best_state)
-    return history_frame(history)
+    if run.best_state is not None:
+        model.load_state_dict(run.best_state)
+    return history_frame(run.history)
 
 
-def _check_finite(loss: torch.Tensor, what: str, epoch: int, step: int, checkpoint_path) -> None:
-    if not torch.isfinite(loss):
-        raise FloatingPointError(
-            f"{what} loss became {loss.item()} at epoch {epoch + 1}, step {step + 1} "
-            f"(checkpoint {checkpoint_path}); lower the learning rate or check the data"
-        )
+def _save_final(run: _Run, config: TrainConfig, extra_state, path: Path) -> None:
+    """The checkpoint of a finished run: the best epoch's weights (``model``) and the last."""
+    config_dict = dataclasses.asdict(config)
+    config_dict.pop("device")  # the same run may be evaluated on another device
+    config_dict.pop("threads")
+    final = {
+        "model": run.best_state if run.best_state is not None else run.model.state_dict(),
+        "last_model": {k: v.detach().cpu() for k, v in run.model.state_dict().items()},
+        "config": config_dict,
+        "history": run.history,
+        "best_val": run.best_val,
+        "extra": dict(extra_state or {}),
+    }
+    if run.adversary is not None:
+        final["adversary"] = run.adversary.module.state_dict()
+    _atomic_torch_save(final, path)
 
 
 def history_frame(history: list[Mapping[str, Any]]) -> pd.DataFrame:

@@ -1,12 +1,12 @@
 import numpy as np
-import pytest
 
+from neurender import shapes
 from neurender.prt import geometry_image as gi
 from neurender.prt import objects
 
 
 def _paraboloid(n_vertices=3000):
-    pts, faces = objects.disk_mesh(n_vertices, np.random.default_rng(0))
+    pts, faces = shapes.disk_mesh(n_vertices, np.random.default_rng(0))
     z = 0.5 * (pts[:, 0] ** 2 + pts[:, 1] ** 2)
     return np.column_stack([pts, z]), faces
 
@@ -38,22 +38,6 @@ def test_boundary_square_corners_and_perimeter():
         assert np.any(np.all(np.isclose(sq, corner), axis=1))
     steps = np.linalg.norm(np.diff(np.vstack([sq, sq[:1]]), axis=0), axis=1)
     np.testing.assert_allclose(steps, 0.1, atol=1e-9)
-
-
-def test_grid_faces_are_counter_clockwise_and_cover_the_square():
-    uv = gi.grid_uv(5)
-    faces = gi.grid_faces(5)
-    area = gi.signed_areas(uv, faces)
-    assert (area > 0).all()
-    assert area.sum() == pytest.approx(1.0)
-
-
-def test_grid_normals_of_a_plane_point_up():
-    uv = gi.grid_uv(6)
-    p = np.column_stack([uv, np.zeros(len(uv))]).reshape(6, 6, 3)
-    np.testing.assert_allclose(
-        gi.grid_normals(p), np.broadcast_to([0, 0, 1.0], (6, 6, 3)), atol=1e-12
-    )
 
 
 def test_builtin_objects_map_without_flips():

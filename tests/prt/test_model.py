@@ -2,18 +2,17 @@ import numpy as np
 import pytest
 import torch
 
+from neurender.prt.frames import Split
 from neurender.prt.model import (
     DeepPRT,
-    MoMoPRT,
     Normalisation,
-    Split,
     TransferNetwork,
     build_network,
     export_deepprt,
-    fit_momoprt,
     raw_inputs,
-    train_deepprt,
 )
+from neurender.prt.momoprt import MoMoPRT, fit_momoprt
+from neurender.prt.training import train_deepprt
 
 
 def _split(params, rng, n=4, k=16, affine=None):

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from neurender.prt import evaluate, render
+from neurender.prt import render, scores
 from neurender.prt.geometry_image import grid_uv
 
 
@@ -44,7 +44,7 @@ def test_compare_images_identity_and_error():
     rng = np.random.default_rng(0)
     gt = rng.uniform(0.2, 1.0, (3, 24, 24))
     mask = np.ones((1, 24, 24), np.float32)
-    same = evaluate.compare_images(gt, gt, mask)
+    same = scores.compare_images(gt, gt, mask)
     assert same["ssim"] == pytest.approx(1.0) and same["l2rgb"] == 0.0
-    worse = evaluate.compare_images(gt, gt * 0.5, mask)
+    worse = scores.compare_images(gt, gt * 0.5, mask)
     assert worse["l2rgb"] > 0 and worse["ssim"] < 1.0

@@ -3,8 +3,8 @@ import math
 import numpy as np
 
 from neurender import sh
+from neurender.geometry import grid_faces
 from neurender.prt import transfer
-from neurender.prt.geometry_image import grid_faces
 
 
 def _hits_any(tris, origin, dirs):

@@ -1,14 +1,12 @@
-# DeepPRT data (paper 3.1, 3.2.2): meshes -> geometry images -> deformation sequences ->
-# ray-traced SH transfer per frame, plus light probes, noise floor and ray benchmark.
+# DeepPRT (Li et al. 2019): meshes -> geometry images -> deformation sequences ->
+# ray-traced SH transfer per frame -> ResNet U-Net per object and material, MoMoPRT
+# baseline, rendered-appearance evaluation, compression, timing and the paper's experiments.
+
+from neurender.lights import BUILTIN_PROBES
+from neurender.prt import EXPERIMENTS, MATERIALS as PRT_MATERIALS, OBJECTS, SPLITS as PRT_SPLITS
 
 
-BUILTIN_OBJECTS = ("head", "cloth", "creature")
-BUILTIN_PROBES = ("sky", "sunset", "studio")
-PRT_SPLITS = ("train", "val", "test")
-PRT_MATERIALS = ("diffuse", "glossy")
-
-
-def _check_names(kind, names, builtins, user):
+def prt_check_names(kind, names, builtins, user):
     for name in names:
         if name not in builtins and name not in user:
             raise ValueError(
@@ -17,112 +15,188 @@ def _check_names(kind, names, builtins, user):
             )
 
 
-_check_names("prt.objects entry", config["prt"]["objects"], BUILTIN_OBJECTS, config["prt"]["user_meshes"])
-_check_names("prt.probes entry", config["prt"]["probes"], BUILTIN_PROBES, config["prt"]["user_probes"])
+prt_check_names(
+    "prt.objects entry", config["prt"]["objects"], OBJECTS, config["prt"]["user_meshes"]
+)
+prt_check_names(
+    "prt.probes entry", config["prt"]["probes"], BUILTIN_PROBES, config["prt"]["user_probes"]
+)
 if config["prt"]["light"] not in config["prt"]["probes"]:
-    raise ValueError(f"config: prt.light {config['prt']['light']!r} must be one of prt.probes {config['prt']['probes']}")
+    raise ValueError(
+        f"config: prt.light {config['prt']['light']!r} must be one of prt.probes "
+        f"{config['prt']['probes']}"
+    )
+
+PRT_OBJECTS = list(config["prt"]["objects"])
+PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()
+PRT_LIGHT = f"results/prt/probes/{config['prt']['light']}_sh.csv"
+PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule")
+PRT_TRAIN_KEYS += ("residual_targets",)
+PRT_TRANSFER_KEYS = ("n_bands", "direction_sets", "ray_offset")
 
 
 wildcard_constraints:
     object="[A-Za-z0-9_]+",
     probe="[A-Za-z0-9_]+",
-    split="train|val|test",
-    material="diffuse|glossy",
+    split="|".join(PRT_SPLITS),
+    material="|".join(PRT_MATERIALS),
 
 
-def prt_params():
-    """The PRT data subtree plus the seed: what every PRT data rule depends on."""
-    return {"seed": config["seed"], **config["prt"]}
+def prt_params(prt_keys=(), model_keys=(), top=(), **extra):
+    """A rule's keys of the ``prt`` and ``prt_model`` sections (:func:`section_keys`)."""
+    return {
+        **section_keys("prt", prt_keys, top),
+        **section_keys("prt_model", model_keys),
+        **extra,
+    }
+
+
+def prt_probe_params(wildcards):
+    return prt_params(("probe_height", "n_bands"), probe=wildcards.probe)
+
+
+def prt_geometry_image_params(wildcards):
+    keys = ("resolution", "source_vertices")
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_sequence_params(wildcards):
+    keys = ("frames", "experiment_points", "experiment_train_frames", "linear_range")
+    keys += ("excluded_expression",)
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_transfer_params(wildcards):
+    """Test frames get the clean reference's direction count (paper scale: >= 4x)."""
+    key = "reference_directions" if wildcards.split == "test" else "directions"
+    return prt_params(
+        PRT_TRANSFER_KEYS,
+        top=("seed",),
+        object=wildcards.object,
+        split=wildcards.split,
+        directions=config["prt"][key],
+    )
+
+
+def prt_noise_floor_params(wildcards):
+    keys = PRT_TRANSFER_KEYS + ("directions", "noise_floor_frames")
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_figure_params(wildcards):
+    return prt_params(("n_bands",), object=wildcards.object)
+
+
+def prt_benchmark_params():
+    keys = PRT_TRANSFER_KEYS + ("directions", "benchmark_paper_scale")
+    return prt_params(keys, top=("seed",))
+
+
+def prt_train_params(wildcards):
+    """What a training job reads, so an edit of an evaluation key never retrains."""
+    return prt_params(
+        ("n_bands",), PRT_TRAIN_KEYS, ("seed", "device"), material=wildcards.material
+    )
+
+
+def prt_momoprt_params(wildcards):
+    keys = ("pca_components", "ridges")
+    return prt_params(("n_bands",), keys, material=wildcards.material)
+
+
+def prt_evaluate_params(wildcards):
+    keys = PRT_TRANSFER_KEYS + ("directions", "reference_directions", "noise_floor_frames")
+    model = ("render_resolution", "glossy_exponent", "equal_quality_directions")
+    return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
+
+
+def prt_model_summary_params():
+    return prt_params(
+        ("resolution", "frames", "n_bands"), ("equal_quality_directions",), objects=PRT_OBJECTS
+    )
+
+
+def prt_test_frame_params(wildcards):
+    """The section 4.2.2 experiments and the relighting figure."""
+    return prt_params(
+        ("n_bands",), ("render_resolution",), ("device",), object=wildcards.object
+    )
+
+
+def prt_probe_source(wildcards):
+    """A user probe file is an input of its job, so editing it reruns the job."""
+    path = config["prt"]["user_probes"].get(wildcards.probe)
+    return {"source": path} if path else {}
 
 
 def prt_object_source(wildcards):
     """A user mesh file is an input of its geometry-image job, so editing it reruns the job."""
     path = config["prt"]["user_meshes"].get(wildcards.object)
-    return [path] if path else []
+    return {"source": path} if path else {}
 
 
-def prt_probe_source(wildcards):
-    path = config["prt"]["user_probes"].get(wildcards.probe)
-    return [path] if path else []
+def prt_sequence_gim(wildcards):
+    """The section 4.2.2 experiments deform the head's geometry image."""
+    source = "head" if wildcards.object in EXPERIMENTS else wildcards.object
+    return f"results/prt/{source}/geometry_image.npz"
 
 
-def prt_all_objects():
-    return list(config["prt"]["objects"]) + ["plane"]
-
-
-def prt_subset(*keys):
-    """Only the PRT config keys a rule uses, so unrelated edits never rerun it."""
-    return {"seed": config["seed"], **{k: config["prt"][k] for k in keys}}
-
-
-def prt_directions(wildcards):
-    """Test frames get the clean reference's direction count (paper scale: >= 4x)."""
-    key = "reference_directions" if wildcards.split == "test" else "directions"
-    return config["prt"][key]
-
-
-def prt_split_inputs(wildcards):
-    """Sequence file, frame folders and manifests of every split of one object."""
+def prt_split_files(wildcards, splits=PRT_SPLITS):
+    """Sequence file, frame folders and manifests of the given splits of one object."""
     base = f"results/prt/{wildcards.object}"
     inputs = {"seq": f"{base}/sequence.npz"}
-    for split in PRT_SPLITS:
+    for split in splits:
         inputs[f"{split}_dir"] = f"{base}/{split}"
         inputs[f"{split}_manifest"] = f"{base}/{split}_manifest.csv"
     return inputs
 
 
-PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule", "residual_targets")
+def prt_training_files(wildcards):
+    return prt_split_files(wildcards, ("train", "val"))
 
 
-def prt_train_params():
-    """What a DeepPRT training job reads, so an edit of an evaluation key never retrains."""
-    model = config["prt_model"]
-    return {"device": config["device"], **prt_subset("n_bands"), **{k: model[k] for k in PRT_TRAIN_KEYS}}
+def prt_evaluation_files(wildcards):
+    return prt_split_files(wildcards, ("val", "test"))
+
+
+def prt_test_files(wildcards):
+    return prt_split_files(wildcards, ("test",))
 
 
 def prt_train_priority(wildcards):
     """The object networks first, the shorter experiment networks after them and the
     seconds-long MoMoPRT fits (priority 0) in the gaps, so the two single-thread training
     jobs keep both cores busy until the last one ends."""
-    return 1 if wildcards.object in PRT_EXPERIMENTS else 2
+    return 1 if wildcards.object in EXPERIMENTS else 2
 
 
-def prt_momoprt_params():
-    """What a MoMoPRT fit reads."""
-    model = config["prt_model"]
-    return {**prt_subset("n_bands"), **{k: model[k] for k in ("pca_components", "ridges")}}
+def prt_report_tables():
+    tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
+    experiments = expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS)
+    return expand("results/prt/{table}.csv", table=tables) + experiments
 
 
-def prt_model_params():
-    """What the evaluation rules depend on: the model subtree and the data keys they read."""
-    data_keys = ("n_bands", "directions", "reference_directions", "direction_sets", "ray_offset")
-    data_keys += ("noise_floor_frames", "resolution", "frames")
-    return {"device": config["device"], **prt_subset(*data_keys), **config["prt_model"]}
+def prt_report_figures():
+    kinds = ("prediction", "frames")
+    per_object = expand("results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds)
+    experiments = expand("results/prt/figures/{x}.png", x=PRT_EXPERIMENTS)
+    fixed = ["loss_curves", "equal_quality", "light_probes"]
+    if len(config["prt"]["probes"]) >= 2:
+        fixed.append(f"{PRT_OBJECTS[0]}_relight")
+    return per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
 
 
-PRT_EXPERIMENTS = ("head_linear", "head_excluded") if config["prt"]["experiments"] else ()
-
-
-def prt_sequence_gim(wildcards):
-    """The section 4.2.2 experiments deform the head's geometry image."""
-    source = "head" if wildcards.object in ("head_linear", "head_excluded") else wildcards.object
-    return f"results/prt/{source}/geometry_image.npz"
-
-
-def prt_experiment_tables():
-    return expand("results/prt/{experiment}/experiment.csv", experiment=PRT_EXPERIMENTS)
-
-
+# ---------------------------------------------------------------- data (paper 3.1, 3.2.2)
 
 
 rule prt_probe:
     input:
-        prt_probe_source,
+        unpack(prt_probe_source),
     output:
         exr="results/prt/probes/{probe}.exr",
         sh="results/prt/probes/{probe}_sh.csv",
     params:
-        cfg=prt_subset("probe_height", "n_bands"),
+        cfg=prt_probe_params,
     log:
         "results/logs/prt_probe/{probe}.log",
     benchmark:
@@ -136,12 +210,12 @@ rule prt_probe:
 
 rule prt_geometry_image:
     input:
-        prt_object_source,
+        unpack(prt_object_source),
     output:
         gim="results/prt/{object}/geometry_image.npz",
         stats="results/prt/{object}/geometry_image.csv",
     params:
-        cfg=prt_subset("resolution", "source_vertices"),
+        cfg=prt_geometry_image_params,
     log:
         "results/logs/prt_geometry_image/{object}.log",
     benchmark:
@@ -159,9 +233,7 @@ rule prt_sequence:
     output:
         seq="results/prt/{object}/sequence.npz",
     params:
-        cfg=prt_subset(
-            "frames", "experiment_points", "experiment_train_frames", "linear_range", "excluded_expression"
-        ),
+        cfg=prt_sequence_params,
     log:
         "results/logs/prt_sequence/{object}.log",
     benchmark:
@@ -176,13 +248,12 @@ rule prt_sequence:
 rule prt_transfer:
     input:
         seq="results/prt/{object}/sequence.npz",
-        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+        light=PRT_LIGHT,
     output:
         frames=directory("results/prt/{object}/{split}"),
         manifest="results/prt/{object}/{split}_manifest.csv",
     params:
-        cfg=prt_subset("n_bands", "direction_sets", "ray_offset"),
-        directions=prt_directions,
+        cfg=prt_transfer_params,
     log:
         "results/logs/prt_transfer/{object}_{split}.log",
     benchmark:
@@ -203,11 +274,11 @@ rule prt_noise_floor:
     input:
         seq="results/prt/{object}/sequence.npz",
         reference="results/prt/{object}/test",
-        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+        light=PRT_LIGHT,
     output:
         csv="results/prt/{object}/noise_floor.csv",
     params:
-        cfg=prt_subset("n_bands", "direction_sets", "ray_offset", "directions", "noise_floor_frames"),
+        cfg=prt_noise_floor_params,
     log:
         "results/logs/prt_noise_floor/{object}.log",
     benchmark:
@@ -224,11 +295,16 @@ rule prt_noise_floor:
 rule prt_figure:
     input:
         frames="results/prt/{object}/test",
-        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+        light=PRT_LIGHT,
     output:
-        png=report("results/prt/figures/{object}_frames.png", category="DeepPRT", labels={"object": "{object}"}),
+        png=report(
+            "results/prt/figures/{object}_frames.png",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"object": "{object}", "figure": "test frames"},
+        ),
     params:
-        n_bands=config["prt"]["n_bands"],
+        cfg=prt_figure_params,
     log:
         "results/logs/prt_figure/{object}.log",
     benchmark:
@@ -242,14 +318,16 @@ rule prt_figure:
 
 rule prt_summary:
     input:
-        gim=expand("results/prt/{object}/geometry_image.csv", object=prt_all_objects()),
+        gim=expand("results/prt/{object}/geometry_image.csv", object=PRT_OBJECTS + ["plane"]),
         manifests=expand(
-            "results/prt/{object}/{split}_manifest.csv", object=config["prt"]["objects"], split=PRT_SPLITS
+            "results/prt/{object}/{split}_manifest.csv", object=PRT_OBJECTS, split=PRT_SPLITS
         ),
-        noise=expand("results/prt/{object}/noise_floor.csv", object=config["prt"]["objects"]),
+        noise=expand("results/prt/{object}/noise_floor.csv", object=PRT_OBJECTS),
     output:
         data="results/prt/data.csv",
         noise="results/prt/noise_floor.csv",
+    params:
+        cfg={},
     log:
         "results/logs/prt_summary/prt_summary.log",
     benchmark:
@@ -263,12 +341,12 @@ rule prt_summary:
 
 rule prt_benchmark:
     input:
-        seq=expand("results/prt/{object}/sequence.npz", object=config["prt"]["objects"][0]),
-        light=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["light"]),
+        seq=f"results/prt/{PRT_OBJECTS[0]}/sequence.npz",
+        light=PRT_LIGHT,
     output:
         csv="results/prt/benchmark.csv",
     params:
-        cfg=prt_subset("n_bands", "direction_sets", "ray_offset", "directions", "benchmark_paper_scale"),
+        cfg=prt_benchmark_params(),
     log:
         "results/logs/prt_benchmark/prt_benchmark.log",
     benchmark:
@@ -287,7 +365,14 @@ rule prt_probes_figure:
         exrs=expand("results/prt/probes/{probe}.exr", probe=config["prt"]["probes"]),
         sh=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]),
     output:
-        png=report("results/prt/figures/light_probes.png", category="DeepPRT"),
+        png=report(
+            "results/prt/figures/light_probes.png",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"figure": "light probes"},
+        ),
+    params:
+        cfg={},
     log:
         "results/logs/prt_probes_figure/prt_probes_figure.log",
     benchmark:
@@ -297,3 +382,184 @@ rule prt_probes_figure:
         "../envs/neurender.yaml"
     script:
         "../scripts/prt_probes_figure.py"
+
+
+# ---------------------------------------------------------------- models (paper 3.2, 4)
+
+
+rule prt_train:
+    input:
+        unpack(prt_training_files),
+    output:
+        checkpoint="results/prt/{object}/deepprt_{material}.pt",
+        onnx="results/prt/{object}/deepprt_{material}.onnx",
+        loss="results/prt/{object}/deepprt_{material}_loss.csv",
+    params:
+        cfg=prt_train_params,
+    log:
+        "results/logs/prt_train/{object}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_train/{object}_{material}.tsv"
+    threads: config["prt_model"]["threads"]
+    priority: prt_train_priority
+    resources:
+        gpu=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_train.py"
+
+
+rule prt_momoprt:
+    input:
+        unpack(prt_training_files),
+    output:
+        model="results/prt/{object}/momoprt_{material}.npz",
+    params:
+        cfg=prt_momoprt_params,
+    log:
+        "results/logs/prt_momoprt/{object}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_momoprt/{object}_{material}.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_momoprt.py"
+
+
+rule prt_evaluate:
+    input:
+        unpack(prt_evaluation_files),
+        deepprt=expand("results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS),
+        onnx=expand("results/prt/{{object}}/deepprt_{material}.onnx", material=PRT_MATERIALS),
+        momoprt=expand("results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS),
+        light=PRT_LIGHT,
+    output:
+        metrics="results/prt/{object}/metrics.csv",
+        frames="results/prt/{object}/metrics_frames.csv",
+        figure=report(
+            "results/prt/figures/{object}_prediction.png",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"object": "{object}", "figure": "prediction vs ground truth"},
+        ),
+    params:
+        cfg=prt_evaluate_params,
+    log:
+        "results/logs/prt_evaluate/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_evaluate/{object}.tsv"
+    threads: workflow.cores
+    resources:
+        embree=1,
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_evaluate.py"
+
+
+rule prt_model_summary:
+    input:
+        metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
+        checkpoints=expand(
+            "results/prt/{object}/deepprt_{material}.pt",
+            object=PRT_OBJECTS,
+            material=PRT_MATERIALS,
+        ),
+        onnx=expand(
+            "results/prt/{object}/deepprt_{material}.onnx",
+            object=PRT_OBJECTS,
+            material=PRT_MATERIALS,
+        ),
+        losses=expand(
+            "results/prt/{object}/deepprt_{material}_loss.csv",
+            object=PRT_OBJECTS,
+            material=PRT_MATERIALS,
+        ),
+        frames=expand("results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS),
+        experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
+    output:
+        metrics="results/prt/metrics.csv",
+        compression="results/prt/compression.csv",
+        targets="results/prt/targets.csv",
+        loss=report(
+            "results/prt/figures/loss_curves.png",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"figure": "training curves"},
+        ),
+        equal_quality=report(
+            "results/prt/figures/equal_quality.png",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"figure": "equal quality"},
+        ),
+    params:
+        cfg=prt_model_summary_params(),
+    log:
+        "results/logs/prt_model_summary/prt_model_summary.log",
+    benchmark:
+        "results/benchmarks/prt_model_summary/prt_model_summary.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_model_summary.py"
+
+
+rule prt_experiment:
+    input:
+        unpack(prt_test_files),
+        deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        onnx="results/prt/{object}/deepprt_diffuse.onnx",
+        momoprt="results/prt/{object}/momoprt_diffuse.npz",
+        light=PRT_LIGHT,
+    output:
+        csv="results/prt/{object}/experiment.csv",
+        figure=report(
+            "results/prt/figures/{object}.png",
+            category="DeepPRT",
+            subcategory="experiments",
+            labels={"experiment": "{object}", "figure": "paper Fig. 6"},
+        ),
+    params:
+        cfg=prt_test_frame_params,
+    wildcard_constraints:
+        object="|".join(EXPERIMENTS),
+    log:
+        "results/logs/prt_experiment/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_experiment/{object}.tsv"
+    threads: workflow.cores
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_experiment.py"
+
+
+rule prt_relight:
+    input:
+        unpack(prt_test_files),
+        deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        onnx="results/prt/{object}/deepprt_diffuse.onnx",
+        probes=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]),
+    output:
+        csv="results/prt/{object}/relight.csv",
+        figure=report(
+            "results/prt/figures/{object}_relight.png",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"object": "{object}", "figure": "relighting (paper Fig. 2)"},
+        ),
+    params:
+        cfg=prt_test_frame_params,
+    log:
+        "results/logs/prt_relight/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_relight/{object}.tsv"
+    threads: 1
+    conda:
+        "../envs/neurender.yaml"
+    script:
+        "../scripts/prt_relight.py"

@@ -14,9 +14,11 @@ rule report:
     output:
         html="results/report.html",
     params:
-        title=config["report"]["title"],
-        configfiles=[str(f) for f in workflow.configfiles],
-        seed=config["seed"],
+        cfg={
+            "title": config["report"]["title"],
+            "configfiles": [str(f) for f in workflow.configfiles],
+            "seed": config["seed"],
+        },
     log:
         "results/logs/report/report.log",
     benchmark:

@@ -1,12 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.benchmark import run_benchmark
-from neurender.prt.data import read_sh_light
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-run_benchmark(
-    snakemake.input.seq[0],
-    read_sh_light(snakemake.input.light[0]),
-    snakemake.params.cfg,
-    snakemake.threads,
-    snakemake.output.csv,
-)
+run(snakemake, jobs.prt_benchmark)

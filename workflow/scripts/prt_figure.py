@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import frames_figure
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-frames_figure(
-    snakemake.wildcards.object,
-    snakemake.input.frames,
-    snakemake.input.light[0],
-    snakemake.params.n_bands,
-    snakemake.output.png,
-)
+run(snakemake, jobs.prt_figure)

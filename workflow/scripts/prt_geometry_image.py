@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import make_geometry_image
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-make_geometry_image(
-    snakemake.wildcards.object,
-    snakemake.input[0] if snakemake.input else None,
-    snakemake.params.cfg,
-    snakemake.output.gim,
-    snakemake.output.stats,
-)
+run(snakemake, jobs.prt_geometry_image)

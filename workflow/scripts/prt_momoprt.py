@@ -1,13 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.model import run_momoprt
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-inp = snakemake.input
-run_momoprt(
-    inp.seq,
-    {s: inp[f"{s}_dir"] for s in ("train", "val")},
-    {s: inp[f"{s}_manifest"] for s in ("train", "val")},
-    snakemake.wildcards.material,
-    snakemake.params.cfg,
-    snakemake.output.model,
-)
+run(snakemake, jobs.prt_momoprt)

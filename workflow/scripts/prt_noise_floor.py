@@ -1,13 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import noise_floor
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-noise_floor(
-    snakemake.wildcards.object,
-    snakemake.input.seq,
-    snakemake.input.reference,
-    snakemake.input.light[0],
-    snakemake.params.cfg,
-    snakemake.threads,
-    snakemake.output.csv,
-)
+run(snakemake, jobs.prt_noise_floor)

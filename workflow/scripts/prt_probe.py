@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import make_probe
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-make_probe(
-    snakemake.wildcards.probe,
-    snakemake.input[0] if snakemake.input else None,
-    snakemake.params.cfg,
-    snakemake.output.exr,
-    snakemake.output.sh,
-)
+run(snakemake, jobs.prt_probe)

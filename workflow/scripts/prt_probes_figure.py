@@ -1,5 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import probes_figure
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-probes_figure(snakemake.input.exrs, snakemake.input.sh, snakemake.output.png)
+run(snakemake, jobs.prt_probes_figure)

@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.prt.data import summarise
+from neurender.jobs import run
+from neurender.prt import jobs
 
-log_to_file(snakemake.log[0])
-summarise(
-    snakemake.input.gim,
-    snakemake.input.manifests,
-    snakemake.input.noise,
-    snakemake.output.data,
-    snakemake.output.noise,
-)
+run(snakemake, jobs.prt_summary)

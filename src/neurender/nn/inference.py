@@ -22,6 +22,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import onnx
 import onnxruntime
 import torch
 from torch import nn
@@ -104,6 +105,7 @@ def export_onnx(model: nn.Module, example: torch.Tensor, path: str | Path, atol:
             external_data=False,  # one self-contained file (external data would follow tmp)
         )
         log.debug("torch.onnx: %s", chatter.getvalue())
+        _strip_debug_metadata(tmp)
         got = OnnxNetwork(tmp)(example.numpy())
         error = float(np.abs(got - expected).max())
         if not error <= atol:
@@ -111,6 +113,17 @@ def export_onnx(model: nn.Module, example: torch.Tensor, path: str | Path, atol:
                 f"{path}: ONNX Runtime differs from PyTorch by {error:.3g} (> atol {atol})"
             )
     log.info("exported %s (max |ONNX - PyTorch| = %.2g)", path, error)
+
+
+def _strip_debug_metadata(path: Path) -> None:
+    """Drop the exporter's per-node debug records (source file paths, line numbers, FX
+    node text): a shipped network then does not carry the build machine's paths, and the
+    same weights give the same file from any checkout."""
+    model = onnx.load(str(path))
+    for graph in [model.graph, *(f for f in model.functions)]:
+        for node in graph.node:
+            del node.metadata_props[:]
+    onnx.save(model, str(path))
 
 
 class OnnxNetwork:

@@ -26,8 +26,9 @@ from embreex import rtcore_scene
 from threadpoolctl import threadpool_limits
 
 from neurender import sh
-from neurender.geometry import grid_normals
+from neurender.geometry import grid_faces, grid_normals
 from neurender.raytrace import embree_scene
+from neurender.rng import stable_seed
 
 
 class DirectionSets:
@@ -185,3 +186,21 @@ def relight_diffuse(transfer: np.ndarray, light: np.ndarray, albedo: float = 1.0
         ``(..., 3)`` linear RGB radiance.
     """
     return albedo / math.pi * transfer @ light
+
+
+def sample_frame(
+    positions: np.ndarray,
+    directions: int,
+    cfg: dict,
+    offset: float,
+    light: np.ndarray | None,
+    threads: int,
+    *seed: object,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
+    """:func:`frame_transfer` of a geometry image ``(n, n, 3)`` with ``directions`` per
+    vertex, its direction sets and their assignment drawn from ``stable_seed(cfg["seed"],
+    *seed)`` (``cfg``: ``seed``, ``direction_sets``, ``n_bands``)."""
+    rng = np.random.default_rng(stable_seed(cfg["seed"], *seed))
+    sets = DirectionSets(cfg["direction_sets"], directions, cfg["n_bands"], rng)
+    faces = grid_faces(positions.shape[0])
+    return frame_transfer(positions, faces, sets, rng, offset, light, threads)

@@ -3,7 +3,7 @@ import pandas as pd
 import pytest
 
 from neurender import io, sh
-from neurender.prt import data
+from neurender.prt import frames, jobs
 
 CFG = {
     "seed": 5,
@@ -26,16 +26,27 @@ CFG = {
 @pytest.fixture(scope="module")
 def head(tmp_path_factory):
     d = tmp_path_factory.mktemp("head")
-    data.make_probe("sky", None, CFG, d / "sky.exr", d / "sky_sh.csv")
-    data.make_geometry_image("head", None, CFG, d / "gim.npz", d / "gim.csv")
-    data.make_sequence("head", d / "gim.npz", CFG, d / "seq.npz")
+    jobs.prt_probe({}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1)
+    gim_out = {"gim": d / "gim.npz", "stats": d / "gim.csv"}
+    jobs.prt_geometry_image({}, gim_out, {**CFG, "object": "head"}, 1)
+    jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1)
     return d
+
+
+def _transfer(head, light, run, threads):
+    """Test frames of the head with 16 directions into ``head / run``."""
+    jobs.prt_transfer(
+        {"seq": head / "seq.npz", "light": head / light},
+        {"frames": head / run, "manifest": head / f"{run}.csv"},
+        {**CFG, "object": "head", "split": "test", "directions": 16},
+        threads,
+    )
 
 
 def test_probe_sh_matches_projection(head):
     img = np.stack([io.read_exr(head / "sky.exr")[c] for c in "RGB"], -1)
     np.testing.assert_allclose(
-        data.read_sh_light(head / "sky_sh.csv"), sh.project_latlong(img, 4), rtol=1e-5
+        frames.read_sh_light(head / "sky_sh.csv"), sh.project_latlong(img, 4), rtol=1e-5
     )
 
 
@@ -50,22 +61,12 @@ def test_sequence_splits_and_extrapolation(head):
 
 def test_transfer_frames_are_deterministic_and_complete(head):
     for run in ("a", "b"):
-        data.compute_transfer(
-            "head",
-            head / "seq.npz",
-            head / "sky_sh.csv",
-            "test",
-            16,
-            CFG,
-            2,
-            head / run,
-            head / f"{run}.csv",
-        )
+        _transfer(head, "sky_sh.csv", run, 2)
     manifest = pd.read_csv(head / "a.csv")
     assert list(manifest.frame) == [0, 1] and (manifest.rays > 0).all()
     assert manifest.extrapolated.tolist() == [False, True]
-    a = data.read_frame(head / "a" / "frame_0001.exr", 4)
-    b = data.read_frame(head / "b" / "frame_0001.exr", 4)
+    a = frames.read_frame(head / "a" / "frame_0001.exr", 4)
+    b = frames.read_frame(head / "b" / "frame_0001.exr", 4)
     for key in ("P", "N", "T", "G"):
         np.testing.assert_array_equal(a[key], b[key])
     assert a["T"].shape == (8, 8, 16) and a["G"].shape == (8, 8, 3, 16)
@@ -74,22 +75,13 @@ def test_transfer_frames_are_deterministic_and_complete(head):
 
 def test_missing_light_file_is_named(head):
     with pytest.raises(FileNotFoundError, match="nolight.csv"):
-        data.compute_transfer(
-            "head",
-            head / "seq.npz",
-            head / "nolight.csv",
-            "test",
-            16,
-            CFG,
-            1,
-            head / "x",
-            head / "x.csv",
-        )
+        _transfer(head, "nolight.csv", "x", 1)
 
 
 @pytest.mark.parametrize("name", ["head_linear", "head_excluded"])
 def test_experiment_sequences(head, name):
-    data.make_sequence(name, head / "gim.npz", CFG, head / f"{name}.npz")
+    params = {**CFG, "object": name}
+    jobs.prt_sequence({"gim": head / "gim.npz"}, {"seq": head / f"{name}.npz"}, params, 1)
     seq = io.load_npz(head / f"{name}.npz")
     assert len(seq["train_positions"]) == 2 and len(seq["test_positions"]) == 3
     if name == "head_linear":

@@ -1,0 +1,131 @@
+"""Inference time against ray tracing: speed-up and the equal-quality ratio (paper 3.2.4).
+
+The network's time is the median of 51 predictions of one frame (inputs, network and
+decoding) by the engine it ships with (``inference_ms_per_frame``; ONNX Runtime on the
+CPU); every other engine it holds is timed beside it (``inference_ms_per_frame_<engine>``).
+The equal-quality ratio compares that time with the time of the cheapest ray-traced
+ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse SSIM
+against the clean reference reaches the network's, on the first test frames. All on the
+same machine and threads.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pandas as pd
+
+from neurender.prt import transfer
+from neurender.prt.frames import Split, ray_offset
+from neurender.prt.model import DeepPRT
+from neurender.prt.scores import diffuse_ssim
+from neurender.tables import tidy_rows
+from neurender.timing import timed
+
+
+def inference_seconds(net: DeepPRT, frame: Split) -> dict[str, float]:
+    """Median seconds per prediction of one frame by each of the network's engines."""
+    return {
+        engine: timed(net.predict, frame, engine=engine, repeats=51, warmup=1)[1]
+        for engine in net.engines
+    }
+
+
+def ray_traced_estimates(
+    name: str, test: Split, count: int, light: np.ndarray, cfg: dict, threads: int
+) -> dict[int, tuple[float, float]]:
+    """``directions -> (seconds per frame, mean diffuse SSIM)`` of ray-traced ground truth
+    of the first ``count`` test frames for every ``equal_quality_directions`` count, and
+    ``reference_directions -> (seconds, nan)`` for the clean reference's own cost."""
+    offset = ray_offset(test.positions[0], cfg["ray_offset"])
+    reference = cfg["reference_directions"]
+    out = {}
+    for directions in sorted(cfg["equal_quality_directions"]) + [reference]:
+        ssims, seconds = [], []
+        for f in range(count):
+            t0 = time.perf_counter()
+            _, d, _, _ = transfer.sample_frame(
+                test.positions[f],
+                directions,
+                cfg,
+                offset,
+                None,
+                threads,
+                name,
+                "equal-quality",
+                f,
+                directions,
+            )
+            seconds.append(time.perf_counter() - t0)
+            if directions != reference:
+                ssims.append(
+                    diffuse_ssim(
+                        test.positions[f], d, test.diffuse[f], cfg["render_resolution"], light
+                    )
+                )
+        out[directions] = (float(np.mean(seconds)), float(np.mean(ssims)) if ssims else math.nan)
+    return out
+
+
+def timing_rows(
+    name: str,
+    net: DeepPRT,
+    test: Split,
+    light: np.ndarray,
+    cfg: dict,
+    threads: int,
+    frames: pd.DataFrame,
+) -> pd.DataFrame:
+    """Timing rows of one object: the network's time per engine, the ray-traced estimates'
+    times and SSIMs, the speed-up over the reference and the equal-quality ratio.
+
+    Args:
+        frames: the object's per-frame scores (:func:`neurender.prt.scores.score_frames`),
+            for the network's diffuse SSIM on the same test frames.
+    """
+    engine_s = inference_seconds(net, Split(test.positions[:1], test.normals[:1], None, None, None))
+    net_s = engine_s[net.engine]
+    count = min(cfg["noise_floor_frames"], len(test.positions))
+    deep = frames[
+        (frames.model == "DeepPRT") & (frames.split == "test") & (frames.metric == "ssim_diffuse")
+    ]
+    target = float(deep[deep.frame < count].value.mean())
+    estimates = ray_traced_estimates(name, test, count, light, cfg, threads)
+    reference = estimates.pop(cfg["reference_directions"])[0]
+    rows = tidy_rows("prt", name, "DeepPRT", "timing", {"inference_ms_per_frame": 1000 * net_s})
+    rows += tidy_rows(
+        "prt",
+        name,
+        "DeepPRT",
+        "timing",
+        {
+            f"inference_ms_per_frame_{engine}": 1000 * s
+            for engine, s in engine_s.items()
+            if engine != net.engine
+        },
+    )
+    equal = equal_directions = math.nan
+    for directions, (seconds, ssim) in estimates.items():
+        rows += tidy_rows(
+            "prt",
+            name,
+            "ground truth",
+            "timing",
+            {
+                f"gt_seconds_per_frame_{directions}_dirs": seconds,
+                f"gt_ssim_{directions}_dirs": ssim,
+            },
+        )
+        if math.isnan(equal) and ssim >= target:
+            equal, equal_directions = seconds, directions
+    gt = {"gt_seconds_per_frame_reference": reference}
+    rows += tidy_rows("prt", name, "ground truth", "timing", gt)
+    net_rows = {"speedup_vs_reference_gt": reference / net_s, "equal_quality_ssim_target": target}
+    rows += tidy_rows("prt", name, "DeepPRT", "timing", net_rows)
+    gt = {"equal_quality_directions": equal_directions}
+    rows += tidy_rows("prt", name, "ground truth", "timing", gt)
+    speedup = equal / net_s if not math.isnan(equal) else math.nan
+    rows += tidy_rows("prt", name, "DeepPRT", "timing", {"equal_quality_speedup": speedup})
+    return pd.DataFrame(rows)

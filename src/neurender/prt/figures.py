@@ -1,0 +1,225 @@
+"""Figures of DeepPRT: data, predictions (Fig. 7), light probes (Fig. 2), training curves,
+the equal-quality comparison, the section 4.2.2 experiments (Fig. 6) and relighting.
+
+Radiance images are shown divided by their ground truth's maximum with gamma 2.2
+(:func:`neurender.display.gamma`); HDR probes with Reinhard and gamma
+(:func:`neurender.display.tonemap`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from neurender import io, lights, sh
+from neurender.display import gamma, tonemap
+from neurender.plots import plt, save_figure
+from neurender.prt import MATERIALS, transfer
+from neurender.prt.frames import read_frame, read_sh_light
+
+
+def frames_figure(
+    name: str, test_dir: str, light_csv: str, n_bands: int, out: str, count: int = 3
+) -> None:
+    """Position, normal, diffuse-transfer and relit-radiance images of a few test frames."""
+    files = sorted(Path(test_dir).glob("frame_*.exr"))[:count]
+    if not files:
+        raise FileNotFoundError(f"no frame_*.exr files in {test_dir}")
+    light = read_sh_light(light_csv)[: n_bands**2]
+    fig, axes = plt.subplots(len(files), 4, figsize=(10, 2.6 * len(files)), squeeze=False)
+    for row, file in zip(axes, files, strict=True):
+        fr = read_frame(file, n_bands)
+        p = fr["P"]
+        pn = (p - p.min((0, 1))) / np.maximum(np.ptp(p, (0, 1)), 1e-9)
+        radiance = transfer.relight_diffuse(fr["T"], light)
+        panels = [
+            (pn, "P (normalised)"),
+            ((fr["N"] + 1) / 2, "N (n+1)/2"),
+            (fr["T"][..., 0] / max(fr["T"][..., 0].max(), 1e-9), "T.00 (ambient occlusion)"),
+            (
+                gamma(radiance / np.percentile(radiance, 99.5)),
+                "relit, diffuse",
+            ),
+        ]
+        for ax, (img, title) in zip(row, panels, strict=True):
+            ax.imshow(np.clip(img, 0, 1), cmap="gray" if img.ndim == 2 else None, origin="lower")
+            ax.set_title(f"{file.stem}: {title}", fontsize=7)
+            ax.axis("off")
+    fig.suptitle(f"DeepPRT data: {name}, test frames (geometry-image space)")
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def probes_figure(exrs: list[str], sh_csvs: list[str], out: str) -> None:
+    """Each probe, its SH reconstruction and the halfway blend of the first two (paper Fig. 2)."""
+
+    images = [lights.load_probe(p) for p in exrs]
+    coeffs = [read_sh_light(p) for p in sh_csvs]
+    panels = []
+    for path, img, c in zip(exrs, images, coeffs, strict=True):
+        h = img.shape[0]
+        panels.append((img, f"{Path(path).stem}"))
+        panels.append(
+            (np.clip(sh.reconstruct_latlong(c, h, 2 * h), 0, None), f"{Path(path).stem}, SH")
+        )
+    if len(coeffs) >= 2:
+        h = images[0].shape[0]
+        mid = np.clip(sh.reconstruct_latlong(0.5 * (coeffs[0] + coeffs[1]), h, 2 * h), 0, None)
+        panels.append((mid, "halfway interpolation, SH"))
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.2 * len(panels), 2.0), squeeze=False)
+    for ax, (img, title) in zip(axes[0], panels, strict=True):
+        ax.imshow(tonemap(img))
+        ax.set_title(title, fontsize=8)
+        ax.axis("off")
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def prediction_figure(name: str, panels: dict | None, out: str) -> None:
+    """GT | prediction | SSIM map | L1 map per model and material (paper Fig. 7)."""
+    if not panels:
+        raise ValueError(f"{name}: no test frame to draw")
+    keys = [k for k in panels if not k[0].startswith("ground truth")] + [
+        k for k in panels if k[0].startswith("ground truth")
+    ]
+    fig, axes = plt.subplots(len(keys), 4, figsize=(9, 2.4 * len(keys)), squeeze=False)
+    for row, key in zip(axes, keys, strict=True):
+        gt, img, scores, mask = panels[key]
+        scale = gt.max()
+        show = [
+            np.moveaxis(gamma(gt / scale), 0, -1),
+            np.moveaxis(gamma(img / scale), 0, -1),
+        ]
+        row[0].imshow(show[0])
+        row[0].set_title(f"{key[1]}: ground truth", fontsize=7)
+        row[1].imshow(show[1])
+        row[1].set_title(f"{key[0]} (SSIM {scores['ssim']:.3f})", fontsize=7)
+        row[2].imshow(scores["ssim_map"], vmin=0.5, vmax=1, cmap="viridis")
+        row[2].set_title("SSIM map", fontsize=7)
+        im = row[3].imshow(scores["l1_map"], vmin=0, vmax=0.1, cmap="magma")
+        row[3].set_title("L1 map", fontsize=7)
+        for ax in row:
+            ax.axis("off")
+        fig.colorbar(im, ax=row[3], fraction=0.046)
+    fig.suptitle(
+        f"DeepPRT: {name}, a test frame (the first extrapolated one if any) vs its clean reference"
+    )
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def loss_figure(loss_csvs: dict, out: str) -> None:
+    """Training and validation L1 per object and material."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
+    for (obj, material), path in sorted(loss_csvs.items()):
+        log_table = io.read_csv(path, ["epoch", "split", "metric", "value"])
+        ax = axes[MATERIALS.index(material)]
+        for split, style in (("train", "--"), ("val", "-")):
+            sel = log_table[(log_table.split == split) & (log_table.metric == "loss")]
+            ax.semilogy(sel.epoch, sel.value, style, label=f"{obj} {split}")
+        ax.set_title(f"DeepPRT {material}: L1 (normalised targets)")
+        ax.set_xlabel("epoch")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -> None:
+    """SSIM against the clean reference vs milliseconds per frame: the ray-traced estimates
+    of every count in ``directions`` (a curve per object) and the shipped network (a star;
+    a hollow star: the same network run by PyTorch, where timed), measured on the first
+    test frames; the equal-quality ratio is the horizontal gap."""
+    timing = table[table.split == "timing"]
+    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    lowest, span = 1.0, []
+    for i, (name, rows) in enumerate(timing.groupby("dataset", sort=True)):
+        value = rows.set_index("metric")["value"]
+        counts = sorted(directions)
+        ms = [1000 * value[f"gt_seconds_per_frame_{c}_dirs"] for c in counts]
+        ssims = [value[f"gt_ssim_{c}_dirs"] for c in counts]
+        target = value["equal_quality_ssim_target"]
+        lowest = min(lowest, target)
+        colour = f"C{i}"
+        ax.plot(ms, ssims, "o-", ms=3, color=colour, label=f"{name}: ray traced")
+        for c, x, y in zip(counts, ms, ssims, strict=True):
+            ax.annotate(
+                str(c),
+                (x, y),
+                fontsize=6,
+                color=colour,
+                xytext=(3, -9 - 7 * i),
+                textcoords="offset points",
+            )
+        ax.plot(
+            [value["inference_ms_per_frame"]],
+            [target],
+            "*",
+            ms=12,
+            color=colour,
+            label=f"{name}: DeepPRT, "
+            + (
+                f"{ratio:.1f}x at equal SSIM"
+                if math.isfinite(ratio := value["equal_quality_speedup"])
+                else "SSIM above every ray-traced count"
+            ),
+        )
+        span += [*ms, value["inference_ms_per_frame"]]
+        if "inference_ms_per_frame_pytorch" in value:  # the same network in PyTorch
+            ax.plot(
+                [value["inference_ms_per_frame_pytorch"]],
+                [target],
+                "*",
+                ms=10,
+                mfc="none",
+                color=colour,
+                label="hollow stars: the same network in PyTorch" if i == 0 else None,
+            )
+            span.append(value["inference_ms_per_frame_pytorch"])
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(plt.ScalarFormatter())
+    ax.xaxis.set_minor_formatter(plt.NullFormatter())
+    ticks = (0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000)
+    ax.set_xticks([t for t in ticks if min(span) / 1.5 <= t <= max(span) * 1.5])
+    ax.set_ylim(max(0.0, lowest - 0.1), 1.0)
+    ax.set_xlabel("milliseconds per frame (same machine and threads)")
+    ax.set_ylabel("diffuse SSIM vs clean reference")
+    ax.set_title("Equal quality: network vs ray-traced transfer (labels: directions)")
+    ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def experiment_figure(name: str, table: pd.DataFrame, label: str, out: str) -> None:
+    """Paper Fig. 6: diffuse L2-RGB of DeepPRT and MoMoPRT along a test path ``x``."""
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    for model, style in (("DeepPRT", "o-"), ("MoMoPRT", "s--")):
+        sel = table[(table.model == model) & (table.metric == "l2rgb_diffuse")]
+        ax.semilogy(sel.x, sel.value, style, label=model)
+    if name == "head_linear":
+        ax.axvspan(0, 1, color="0.9", label="training range")
+    ax.set_xlabel(label)
+    ax.set_ylabel("mean L2-RGB (diffuse)")
+    ax.set_title(f"DeepPRT paper Fig. 6: {name}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, out)
+
+
+def relight_figure(name: str, blends: list[tuple[float, np.ndarray, np.ndarray, float]], out: str):
+    """Paper Fig. 2: ground truth over DeepPRT for each ``(blend weight, ground-truth image
+    (3, H, W), prediction (3, H, W), SSIM)`` of one test frame under blended probes."""
+    steps = len(blends)
+    fig, axes = plt.subplots(2, steps, figsize=(2.2 * steps, 4.6), squeeze=False)
+    for i, (w, gt, img, ssim) in enumerate(blends):
+        scale = gt.max()
+        for r, im in enumerate((gt, img)):
+            axes[r, i].imshow(np.moveaxis(gamma(im / scale), 0, -1))
+            axes[r, i].axis("off")
+        axes[0, i].set_title(f"blend {w:.2f}: ground truth", fontsize=7)
+        axes[1, i].set_title(f"DeepPRT, SSIM {ssim:.3f}", fontsize=7)
+    fig.suptitle(f"DeepPRT paper Fig. 2: {name} test frame 0 under a blend of two light probes")
+    fig.tight_layout()
+    save_figure(fig, out)

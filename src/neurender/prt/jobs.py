@@ -1,0 +1,298 @@
+"""DeepPRT's jobs, one per rule of ``workflow/rules/prt.smk``.
+
+Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
+``(inputs, outputs, params, threads)``. File formats: :mod:`neurender.prt.frames`.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from neurender import io, lights, sh
+from neurender.prt import MATERIALS, SPLITS, figures, frames, noise, objects, summary, transfer
+from neurender.prt.equal_quality import timing_rows
+from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
+from neurender.prt.geometry_image import build_geometry_image, reconstruction_error
+from neurender.prt.model import DeepPRT, export_deepprt
+from neurender.prt.momoprt import MoMoPRT, fit_momoprt
+from neurender.prt.scores import aggregate, score_frames
+from neurender.prt.sequences import build_sequences
+from neurender.prt.training import train_deepprt
+from neurender.shapes import BLENDSHAPES
+from neurender.tables import tidy_rows
+
+log = logging.getLogger(__name__)
+
+
+def _light(path: str, n_bands: int) -> np.ndarray:
+    return frames.read_sh_light(path)[: n_bands**2]
+
+
+def _split(inputs: dict, seq: dict, split: str, n_bands: int) -> frames.Split:
+    return frames.load_split(
+        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands
+    )
+
+
+# ---------------------------------------------------------------- data
+
+
+def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """A light probe (built in, or the user's EXR ``source``) and its SH projection."""
+    source = inputs.get("source")
+    image = (
+        lights.load_probe(source)
+        if source
+        else lights.procedural_probe(params["probe"], params["probe_height"])
+    )
+    lights.write_probe(outputs["exr"], image)
+    io.write_csv(outputs["sh"], frames.sh_light_table(sh.project_latlong(image, params["n_bands"])))
+
+
+def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The object's source mesh (built in, or the user's mesh ``source``) parametrised on
+    the square and resampled, with its blendshapes, on the ``resolution^2`` grid."""
+    start = time.perf_counter()
+    name, n, seed = params["object"], params["resolution"], params["seed"]
+    source = inputs.get("source")
+    mesh = objects.source_mesh(name, params["source_vertices"], seed, source)
+    # The plane shares the head's map so S_lin = a S_head + (1 - a) S_plane keeps pixels aligned.
+    mapped = (
+        objects.source_mesh("head", params["source_vertices"], seed) if name == "plane" else mesh
+    )
+    gim = build_geometry_image(mapped.vertices, mapped.faces, n)
+    if gim.flipped:
+        raise RuntimeError(f"object {name}: harmonic map still has {gim.flipped} flipped triangles")
+    rest = gim.resample(mesh.faces, mesh.vertices)
+    names = sorted(mesh.blendshapes, key=BLENDSHAPES.index) if mesh.blendshapes else []
+    deltas = (
+        np.stack([gim.resample(mesh.faces, mesh.blendshapes[b]) for b in names])
+        if names
+        else np.zeros((0, n, n, 3))
+    )
+    error = reconstruction_error(mesh.vertices, mesh.faces, rest)
+    io.save_npz(
+        outputs["gim"],
+        rest=rest.astype(np.float32),
+        deltas=deltas.astype(np.float32),
+        blendshapes=np.array(names, dtype=str),
+        uv=gim.uv,
+        source_vertices=mesh.vertices,
+        source_faces=mesh.faces,
+        kind=np.array("user" if source else name),
+    )
+    stats = {
+        "source_vertices": len(mesh.vertices),
+        "source_faces": len(mesh.faces),
+        "flipped_triangles": gim.flipped,
+        "cotangent_weights": int(gim.method == "cotangent"),
+        "recon_error_mean": error["mean"],
+        "recon_error_max": error["max"],
+        "seconds": time.perf_counter() - start,
+    }
+    log.info("%s: %s", name, stats)
+    rows = tidy_rows("prt", name, "geometry image", "all", stats)
+    io.write_csv(outputs["stats"], pd.DataFrame(rows))
+
+
+def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Deformation frames of every split (:mod:`neurender.prt.sequences`)."""
+    arrays = build_sequences(params["object"], io.load_npz(inputs["gim"]), params)
+    io.save_npz(outputs["seq"], **arrays)
+
+
+def prt_transfer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Ray-traced diffuse and glossy transfer of every frame of a split, one EXR per frame,
+    and the split's manifest."""
+    name, split, directions = params["object"], params["split"], params["directions"]
+    seq = io.load_npz(inputs["seq"])
+    positions = seq[f"{split}_positions"]
+    light = _light(inputs["light"], params["n_bands"])
+    offset = frames.ray_offset(positions[0], params["ray_offset"])
+    Path(outputs["frames"]).mkdir(parents=True, exist_ok=True)
+    rows = []
+    for f in tqdm(range(len(positions)), desc=f"{name} {split}", mininterval=2.0):
+        start = time.perf_counter()
+        normals, diffuse, glossy, rays = transfer.sample_frame(
+            positions[f], directions, params, offset, light, threads, name, split, f, directions
+        )
+        seconds = time.perf_counter() - start
+        file = Path(outputs["frames"]) / f"frame_{f:04d}.exr"
+        frames.write_frame(file, positions[f], normals, diffuse, glossy, params["n_bands"])
+        rows.append(
+            {
+                "frame": f,
+                "split": split,
+                "file": file.name,
+                "directions": directions,
+                "rays": rays,
+                "seconds": seconds,
+                "rays_per_s": rays / seconds,
+                "extrapolated": bool(seq["test_extrapolated"][f]) if split == "test" else False,
+            }
+        )
+    io.write_csv(outputs["manifest"], pd.DataFrame(rows))
+
+
+def prt_noise_floor(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The noise floor of the training-quality ground truth (:mod:`neurender.prt.noise`)."""
+    positions = io.load_npz(inputs["seq"])["test_positions"]
+    light = _light(inputs["light"], params["n_bands"])
+    rows = noise.noise_floor_rows(
+        params["object"], positions, inputs["reference"], light, params, threads
+    )
+    io.write_csv(outputs["csv"], pd.DataFrame(rows))
+
+
+def prt_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    figures.frames_figure(
+        params["object"], inputs["frames"], inputs["light"], params["n_bands"], outputs["png"]
+    )
+
+
+def prt_probes_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    figures.probes_figure(inputs["exrs"], inputs["sh"], outputs["png"])
+
+
+def prt_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Per-object data statistics and the noise floor of every object in two tables."""
+    io.write_csv(outputs["data"], summary.data_table(inputs["gim"], inputs["manifests"]))
+    noise_rows = pd.concat([io.read_csv(p) for p in inputs["noise"]], ignore_index=True)
+    io.write_csv(outputs["noise"], noise_rows.drop(columns="frame"))
+
+
+def prt_benchmark(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    from neurender.prt.benchmark import run_benchmark
+
+    light = frames.read_sh_light(inputs["light"])
+    run_benchmark(inputs["seq"], light, params, threads, outputs["csv"])
+
+
+# ---------------------------------------------------------------- models
+
+
+def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """One DeepPRT network trained on an object's train split (val for model selection),
+    and the selected network exported as the ONNX file a renderer ships."""
+    seq = io.load_npz(inputs["seq"])
+    train, val = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
+    material, data_key = params["material"], io.checksum(list(inputs.values()))
+    train_deepprt(
+        train, val, material, params, threads, outputs["checkpoint"], outputs["loss"], data_key
+    )
+    export_deepprt(outputs["checkpoint"], val, outputs["onnx"])
+
+
+def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """MoMoPRT fitted on the train split, on blendshape weights where the object has them."""
+    seq = io.load_npz(inputs["seq"])
+    train, val = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
+    use_params = str(seq["kind"]) in ("head", "head_linear", "head_excluded")
+    model = fit_momoprt(
+        train, val, params["material"], use_params, params["pca_components"], params["ridges"]
+    )
+    model.save(outputs["model"])
+
+
+def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """DeepPRT, MoMoPRT and the noise floor scored on the val and test frames of one object
+    (:mod:`neurender.prt.scores`), timed (:mod:`neurender.prt.equal_quality`), and Fig. 7."""
+    name, n_bands = params["object"], params["n_bands"]
+    seq = io.load_npz(inputs["seq"])
+    light = _light(inputs["light"], n_bands)
+    nets = {
+        m: DeepPRT(ckpt, onnx, params["device"], threads)
+        for m, ckpt, onnx in zip(MATERIALS, inputs["deepprt"], inputs["onnx"], strict=True)
+    }
+    linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
+    rows, panels = [], {}
+    for split in ("val", "test"):
+        data = _split(inputs, seq, split, n_bands)
+        preds = {("DeepPRT", m): nets[m].predict(data) for m in MATERIALS}
+        preds |= {("MoMoPRT", m): linear[m].predict(data) for m in MATERIALS}
+        extrapolated = np.zeros(len(data.positions), bool)
+        if split == "test":
+            preds |= noise.noise_floor_predictions(
+                name, seq["test_positions"], light, params, threads
+            )
+            extrapolated = seq["test_extrapolated"]
+            test = data
+        split_rows, split_panels = score_frames(
+            name, split, data, preds, extrapolated, light, params
+        )
+        rows += split_rows
+        panels |= split_panels
+    scores = pd.DataFrame(rows)
+    io.write_csv(outputs["frames"], scores)
+    timing = timing_rows(name, nets["diffuse"], test, light, params, threads, scores)
+    io.write_csv(outputs["metrics"], pd.concat([aggregate(scores), timing], ignore_index=True))
+    figures.prediction_figure(name, panels, outputs["figure"])
+
+
+def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every object's results in the report's DeepPRT tables, the loss figure and the
+    equal-quality figure."""
+    objects_ = params["objects"]
+    keys = [(o, m) for o in objects_ for m in MATERIALS]  # the order of the rule's expand()
+    table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
+    io.write_csv(outputs["metrics"], table)
+    splits = len(SPLITS)
+    frame_dirs = {
+        o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(objects_)
+    }
+    compression = summary.compression_rows(
+        objects_,
+        dict(zip(keys, inputs["checkpoints"], strict=True)),
+        dict(zip(keys, inputs["onnx"], strict=True)),
+        frame_dirs,
+        params["resolution"],
+        params["frames"]["train"] + params["frames"]["val"],
+        params["n_bands"],
+    )
+    io.write_csv(outputs["compression"], compression)
+    experiments = [io.read_csv(p) for p in inputs["experiments"]]
+    io.write_csv(outputs["targets"], summary.target_frame(table, experiments))
+    figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
+    figures.equal_quality_figure(
+        table, params["equal_quality_directions"], outputs["equal_quality"]
+    )
+
+
+def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Paper section 4.2.2 / Fig. 6: diffuse L2-RGB along the experiment's test path for
+    DeepPRT and MoMoPRT."""
+    name = params["object"]
+    seq = io.load_npz(inputs["seq"])
+    light = _light(inputs["light"], params["n_bands"])
+    data = _split(inputs, seq, "test", params["n_bands"])
+    x, label = path_coordinate(name, data)
+    preds = {
+        "DeepPRT": DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads).predict(
+            data
+        ),
+        "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(data),
+    }
+    table = pd.DataFrame(path_rows(name, data, x, preds, light, params["render_resolution"]))
+    io.write_csv(outputs["csv"], table)
+    figures.experiment_figure(name, table, label, outputs["figure"])
+
+
+def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Paper Fig. 2: test frame 0 relit while the light blends from one probe to another."""
+    if len(inputs["probes"]) < 2:
+        raise ValueError(f"dynamic lighting needs two light probes, got {inputs['probes']}")
+    seq = io.load_npz(inputs["seq"])
+    probes = [_light(p, params["n_bands"]) for p in inputs["probes"][:2]]
+    data = _split(inputs, seq, "test", params["n_bands"])
+    net = DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads)
+    rows, blends = relight_rows(
+        params["object"], data, net.predict(data)[0], probes, params["render_resolution"]
+    )
+    figures.relight_figure(params["object"], blends, outputs["figure"])
+    io.write_csv(outputs["csv"], pd.DataFrame(rows))
