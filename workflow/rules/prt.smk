@@ -3,7 +3,12 @@
 # baseline, rendered-appearance evaluation, compression, timing and the paper's experiments.
 
 from neurender.lights import BUILTIN_PROBES
-from neurender.prt import EXPERIMENTS, MATERIALS as PRT_MATERIALS, OBJECTS, SPLITS as PRT_SPLITS
+from neurender.prt import (
+    EXPERIMENTS,
+    MATERIALS as PRT_MATERIALS,
+    OBJECTS,
+    SPLITS as PRT_SPLITS,
+)
 
 
 def prt_check_names(kind, names, builtins, user):
@@ -19,7 +24,10 @@ prt_check_names(
     "prt.objects entry", config["prt"]["objects"], OBJECTS, config["prt"]["user_meshes"]
 )
 prt_check_names(
-    "prt.probes entry", config["prt"]["probes"], BUILTIN_PROBES, config["prt"]["user_probes"]
+    "prt.probes entry",
+    config["prt"]["probes"],
+    BUILTIN_PROBES,
+    config["prt"]["user_probes"],
 )
 if config["prt"]["light"] not in config["prt"]["probes"]:
     raise ValueError(
@@ -105,14 +113,20 @@ def prt_momoprt_params(wildcards):
 
 
 def prt_evaluate_params(wildcards):
-    keys = PRT_TRANSFER_KEYS + ("directions", "reference_directions", "noise_floor_frames")
+    keys = PRT_TRANSFER_KEYS + (
+        "directions",
+        "reference_directions",
+        "noise_floor_frames",
+    )
     model = ("render_resolution", "glossy_exponent", "equal_quality_directions")
     return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
 
 
 def prt_model_summary_params():
     return prt_params(
-        ("resolution", "frames", "n_bands"), ("equal_quality_directions",), objects=PRT_OBJECTS
+        ("resolution", "frames", "n_bands"),
+        ("equal_quality_directions",),
+        objects=PRT_OBJECTS,
     )
 
 
@@ -178,12 +192,16 @@ def prt_report_tables():
 
 def prt_report_figures():
     kinds = ("prediction", "frames")
-    per_object = expand("results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds)
+    per_object = expand(
+        "results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds
+    )
     experiments = expand("results/prt/figures/{x}.png", x=PRT_EXPERIMENTS)
     fixed = ["loss_curves", "equal_quality", "light_probes"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"{PRT_OBJECTS[0]}_relight")
-    return per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
+    return (
+        per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
+    )
 
 
 # ---------------------------------------------------------------- data (paper 3.1, 3.2.2)
@@ -195,15 +213,15 @@ rule prt_probe:
     output:
         exr="results/prt/probes/{probe}.exr",
         sh="results/prt/probes/{probe}_sh.csv",
-    params:
-        cfg=prt_probe_params,
     log:
         "results/logs/prt_probe/{probe}.log",
     benchmark:
         "results/benchmarks/prt_probe/{probe}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_probe_params,
     script:
         "../scripts/prt_probe.py"
 
@@ -214,15 +232,15 @@ rule prt_geometry_image:
     output:
         gim="results/prt/{object}/geometry_image.npz",
         stats="results/prt/{object}/geometry_image.csv",
-    params:
-        cfg=prt_geometry_image_params,
     log:
         "results/logs/prt_geometry_image/{object}.log",
     benchmark:
         "results/benchmarks/prt_geometry_image/{object}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_geometry_image_params,
     script:
         "../scripts/prt_geometry_image.py"
 
@@ -232,15 +250,15 @@ rule prt_sequence:
         gim=prt_sequence_gim,
     output:
         seq="results/prt/{object}/sequence.npz",
-    params:
-        cfg=prt_sequence_params,
     log:
         "results/logs/prt_sequence/{object}.log",
     benchmark:
         "results/benchmarks/prt_sequence/{object}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_sequence_params,
     script:
         "../scripts/prt_sequence.py"
 
@@ -252,20 +270,20 @@ rule prt_transfer:
     output:
         frames=directory("results/prt/{object}/{split}"),
         manifest="results/prt/{object}/{split}_manifest.csv",
-    params:
-        cfg=prt_transfer_params,
     log:
         "results/logs/prt_transfer/{object}_{split}.log",
     benchmark:
         "results/benchmarks/prt_transfer/{object}_{split}.tsv"
-    threads: workflow.cores
-    resources:
-        embree=1,
     # Finish the ground truth first: a 2-thread transfer cannot share the cores with the
     # 1-thread training jobs, which then run two at a time.
     priority: 10
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        embree=1,
+    params:
+        cfg=prt_transfer_params,
     script:
         "../scripts/prt_transfer.py"
 
@@ -277,17 +295,17 @@ rule prt_noise_floor:
         light=PRT_LIGHT,
     output:
         csv="results/prt/{object}/noise_floor.csv",
-    params:
-        cfg=prt_noise_floor_params,
     log:
         "results/logs/prt_noise_floor/{object}.log",
     benchmark:
         "results/benchmarks/prt_noise_floor/{object}.tsv"
+    conda:
+        "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
         embree=1,
-    conda:
-        "../envs/neurender.yaml"
+    params:
+        cfg=prt_noise_floor_params,
     script:
         "../scripts/prt_noise_floor.py"
 
@@ -303,38 +321,42 @@ rule prt_figure:
             subcategory="data",
             labels={"object": "{object}", "figure": "test frames"},
         ),
-    params:
-        cfg=prt_figure_params,
     log:
         "results/logs/prt_figure/{object}.log",
     benchmark:
         "results/benchmarks/prt_figure/{object}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_figure_params,
     script:
         "../scripts/prt_figure.py"
 
 
 rule prt_summary:
     input:
-        gim=expand("results/prt/{object}/geometry_image.csv", object=PRT_OBJECTS + ["plane"]),
+        gim=expand(
+            "results/prt/{object}/geometry_image.csv", object=PRT_OBJECTS + ["plane"]
+        ),
         manifests=expand(
-            "results/prt/{object}/{split}_manifest.csv", object=PRT_OBJECTS, split=PRT_SPLITS
+            "results/prt/{object}/{split}_manifest.csv",
+            object=PRT_OBJECTS,
+            split=PRT_SPLITS,
         ),
         noise=expand("results/prt/{object}/noise_floor.csv", object=PRT_OBJECTS),
     output:
         data="results/prt/data.csv",
         noise="results/prt/noise_floor.csv",
-    params:
-        cfg={},
     log:
         "results/logs/prt_summary/prt_summary.log",
     benchmark:
         "results/benchmarks/prt_summary/prt_summary.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg={},
     script:
         "../scripts/prt_summary.py"
 
@@ -345,17 +367,17 @@ rule prt_benchmark:
         light=PRT_LIGHT,
     output:
         csv="results/prt/benchmark.csv",
-    params:
-        cfg=prt_benchmark_params(),
     log:
         "results/logs/prt_benchmark/prt_benchmark.log",
     benchmark:
         "results/benchmarks/prt_benchmark/prt_benchmark.tsv"
+    conda:
+        "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
         embree=1,
-    conda:
-        "../envs/neurender.yaml"
+    params:
+        cfg=prt_benchmark_params(),
     script:
         "../scripts/prt_benchmark.py"
 
@@ -371,15 +393,15 @@ rule prt_probes_figure:
             subcategory="data",
             labels={"figure": "light probes"},
         ),
-    params:
-        cfg={},
     log:
         "results/logs/prt_probes_figure/prt_probes_figure.log",
     benchmark:
         "results/benchmarks/prt_probes_figure/prt_probes_figure.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg={},
     script:
         "../scripts/prt_probes_figure.py"
 
@@ -394,18 +416,18 @@ rule prt_train:
         checkpoint="results/prt/{object}/deepprt_{material}.pt",
         onnx="results/prt/{object}/deepprt_{material}.onnx",
         loss="results/prt/{object}/deepprt_{material}_loss.csv",
-    params:
-        cfg=prt_train_params,
     log:
         "results/logs/prt_train/{object}_{material}.log",
     benchmark:
         "results/benchmarks/prt_train/{object}_{material}.tsv"
-    threads: config["prt_model"]["threads"]
     priority: prt_train_priority
-    resources:
-        gpu=1,
     conda:
         "../envs/neurender.yaml"
+    threads: config["prt_model"]["threads"]
+    resources:
+        gpu=1,
+    params:
+        cfg=prt_train_params,
     script:
         "../scripts/prt_train.py"
 
@@ -415,15 +437,15 @@ rule prt_momoprt:
         unpack(prt_training_files),
     output:
         model="results/prt/{object}/momoprt_{material}.npz",
-    params:
-        cfg=prt_momoprt_params,
     log:
         "results/logs/prt_momoprt/{object}_{material}.log",
     benchmark:
         "results/benchmarks/prt_momoprt/{object}_{material}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_momoprt_params,
     script:
         "../scripts/prt_momoprt.py"
 
@@ -431,9 +453,15 @@ rule prt_momoprt:
 rule prt_evaluate:
     input:
         unpack(prt_evaluation_files),
-        deepprt=expand("results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS),
-        onnx=expand("results/prt/{{object}}/deepprt_{material}.onnx", material=PRT_MATERIALS),
-        momoprt=expand("results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS),
+        deepprt=expand(
+            "results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS
+        ),
+        onnx=expand(
+            "results/prt/{{object}}/deepprt_{material}.onnx", material=PRT_MATERIALS
+        ),
+        momoprt=expand(
+            "results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS
+        ),
         light=PRT_LIGHT,
     output:
         metrics="results/prt/{object}/metrics.csv",
@@ -444,17 +472,17 @@ rule prt_evaluate:
             subcategory="models",
             labels={"object": "{object}", "figure": "prediction vs ground truth"},
         ),
-    params:
-        cfg=prt_evaluate_params,
     log:
         "results/logs/prt_evaluate/{object}.log",
     benchmark:
         "results/benchmarks/prt_evaluate/{object}.tsv"
+    conda:
+        "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
         embree=1,
-    conda:
-        "../envs/neurender.yaml"
+    params:
+        cfg=prt_evaluate_params,
     script:
         "../scripts/prt_evaluate.py"
 
@@ -477,7 +505,9 @@ rule prt_model_summary:
             object=PRT_OBJECTS,
             material=PRT_MATERIALS,
         ),
-        frames=expand("results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS),
+        frames=expand(
+            "results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS
+        ),
         experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
     output:
         metrics="results/prt/metrics.csv",
@@ -495,15 +525,15 @@ rule prt_model_summary:
             subcategory="models",
             labels={"figure": "equal quality"},
         ),
-    params:
-        cfg=prt_model_summary_params(),
     log:
         "results/logs/prt_model_summary/prt_model_summary.log",
     benchmark:
         "results/benchmarks/prt_model_summary/prt_model_summary.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_model_summary_params(),
     script:
         "../scripts/prt_model_summary.py"
 
@@ -523,17 +553,17 @@ rule prt_experiment:
             subcategory="experiments",
             labels={"experiment": "{object}", "figure": "paper Fig. 6"},
         ),
-    params:
-        cfg=prt_test_frame_params,
-    wildcard_constraints:
-        object="|".join(EXPERIMENTS),
     log:
         "results/logs/prt_experiment/{object}.log",
     benchmark:
         "results/benchmarks/prt_experiment/{object}.tsv"
-    threads: workflow.cores
+    wildcard_constraints:
+        object="|".join(EXPERIMENTS),
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=prt_test_frame_params,
     script:
         "../scripts/prt_experiment.py"
 
@@ -543,7 +573,9 @@ rule prt_relight:
         unpack(prt_test_files),
         deepprt="results/prt/{object}/deepprt_diffuse.pt",
         onnx="results/prt/{object}/deepprt_diffuse.onnx",
-        probes=expand("results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]),
+        probes=expand(
+            "results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]
+        ),
     output:
         csv="results/prt/{object}/relight.csv",
         figure=report(
@@ -552,14 +584,14 @@ rule prt_relight:
             subcategory="models",
             labels={"object": "{object}", "figure": "relighting (paper Fig. 2)"},
         ),
-    params:
-        cfg=prt_test_frame_params,
     log:
         "results/logs/prt_relight/{object}.log",
     benchmark:
         "results/benchmarks/prt_relight/{object}.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=prt_test_frame_params,
     script:
         "../scripts/prt_relight.py"

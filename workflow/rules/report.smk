@@ -13,18 +13,18 @@ rule report:
         + simplify_report_figures(),
     output:
         html="results/report.html",
+    log:
+        "results/logs/report/report.log",
+    benchmark:
+        "results/benchmarks/report/report.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
     params:
         cfg={
             "title": config["report"]["title"],
             "configfiles": [str(f) for f in workflow.configfiles],
             "seed": config["seed"],
         },
-    log:
-        "results/logs/report/report.log",
-    benchmark:
-        "results/benchmarks/report/report.tsv"
-    threads: 1
-    conda:
-        "../envs/neurender.yaml"
     script:
         "../scripts/report.py"

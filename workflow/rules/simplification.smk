@@ -62,12 +62,20 @@ def simplify_evaluate_inputs(wildcards):
 
 def simplify_report_tables():
     tables = ("targets", "metrics", "stats")
-    return expand("results/simplification/{table}.csv", table=tables) if SIMPLIFY_CASES else []
+    return (
+        expand("results/simplification/{table}.csv", table=tables)
+        if SIMPLIFY_CASES
+        else []
+    )
 
 
 def simplify_report_figures():
     names = ("comparison", "loss_curves")
-    return expand("results/simplification/figures/{name}.png", name=names) if SIMPLIFY_CASES else []
+    return (
+        expand("results/simplification/figures/{name}.png", name=names)
+        if SIMPLIFY_CASES
+        else []
+    )
 
 
 wildcard_constraints:
@@ -84,15 +92,15 @@ rule simplify_prepare:
         baked_normal="results/simplification/{case}/baked_normal.png",
         baked_albedo="results/simplification/{case}/baked_albedo.png",
         stats="results/simplification/{case}/stats.csv",
-    params:
-        cfg=simplify_prepare_params,
     log:
         "results/logs/simplify_prepare/{case}.log",
     benchmark:
         "results/benchmarks/simplify_prepare/{case}.tsv"
-    threads: workflow.cores
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=simplify_prepare_params,
     script:
         "../scripts/simplify_prepare.py"
 
@@ -108,17 +116,17 @@ rule simplify_optimise:
         normal="results/simplification/{case}/optimised_normal.png",
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
-    params:
-        cfg=simplify_optimise_params,
     log:
         "results/logs/simplify_optimise/{case}.log",
     benchmark:
         "results/benchmarks/simplify_optimise/{case}.tsv"
+    conda:
+        "../envs/neurender.yaml"
     threads: config["simplify"]["threads"]
     resources:
         gpu=1,
-    conda:
-        "../envs/neurender.yaml"
+    params:
+        cfg=simplify_optimise_params,
     script:
         "../scripts/simplify_optimise.py"
 
@@ -141,14 +149,14 @@ rule simplify_evaluate:
             category="Simplification",
             labels={"figure": "loss curves"},
         ),
-    params:
-        cfg=simplify_evaluate_params(),
     log:
         "results/logs/simplify_evaluate/simplify_evaluate.log",
     benchmark:
         "results/benchmarks/simplify_evaluate/simplify_evaluate.tsv"
-    threads: workflow.cores
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=simplify_evaluate_params(),
     script:
         "../scripts/simplify_evaluate.py"
