@@ -1,43 +1,67 @@
-# Image-space metaballs (thesis 4.1, 5.2): circle inputs and ray-marched G-buffers as AB PNGs.
+# Image-space metaballs (thesis 4.1, 5.2): circle inputs and ray-marched G-buffers as AB
+# PNGs, three networks, their evaluation on held-out scenes and an animated, timed demo.
+
+from neurender.metaballs import (
+    DEMO_VARIANTS as METABALLS_DEMO_VARIANTS,
+    GAN_VARIANTS as METABALLS_GAN_VARIANTS,
+    SPLITS as METABALLS_SPLITS,
+    VARIANTS as METABALLS_VARIANTS,
+)
+
+METABALLS_SCENE_KEYS = ("width", "balls", "radius")
+#: The keys of ``metaballs_model`` every training job reads; the GAN variants also ``ndf``
+#: and ``gan_weight`` (the others train with ``gan_weight`` 0).
+METABALLS_TRAIN_KEYS = ("ngf", "l1_weight", "flips", "batch_size", "lr", "lr_schedule")
+METABALLS_GAN_KEYS = ("ndf", "gan_weight")
+METABALLS_DEMO_KEYS = ("demo_frames", "demo_balls", "timing_balls")
 
 
-METABALL_SPLITS = ("train", "val", "test")
+def metaballs_examples_params(wildcards):
+    split = wildcards.split
+    examples = config["metaballs"]["examples"][split]
+    return section_keys(
+        "metaballs", METABALLS_SCENE_KEYS, ("seed",), split=split, examples=examples
+    )
 
 
-METABALL_VARIANTS = ("pix2pix", "l1only", "sphere_residual")
+def metaballs_train_params(wildcards):
+    """Only the variant's own epochs, so tuning one variant never retrains another."""
+    variant = wildcards.variant
+    gan = variant in METABALLS_GAN_VARIANTS
+    keys = METABALLS_TRAIN_KEYS + (METABALLS_GAN_KEYS if gan else ())
+    cfg = section_keys("metaballs_model", keys, ("seed", "device"), variant=variant)
+    cfg.update(
+        width=config["metaballs"]["width"],
+        epochs=config["metaballs_model"]["epochs"][variant],
+    )
+    return cfg if gan else {**cfg, "gan_weight": 0.0}
 
 
-# The thesis's network and ours: the demo animates and times both.
-METABALL_DEMO_VARIANTS = ("pix2pix", "sphere_residual")
+def metaballs_evaluate_params():
+    return section_keys("metaballs", ("width",), ("device",))
 
 
-def metaballs_params():
-    return {"seed": config["seed"], **config["metaballs"]}
-
-
-def metaballs_model_params(wildcards):
-    """Data and model keys. A training job gets its own variant's epochs only, so tuning one
-    variant never retrains another; only the thesis's pix2pix has a GAN term."""
-    cfg = {"device": config["device"], **metaballs_params(), **config["metaballs_model"]}
-    variant = wildcards.get("variant")
-    if variant is not None:
-        cfg["variant"] = variant
-        cfg["epochs"] = cfg["epochs"][variant]
-        if variant != "pix2pix":
-            cfg["gan_weight"] = 0.0
-    return cfg
+def metaballs_demo_params():
+    cfg = section_keys("metaballs_model", METABALLS_DEMO_KEYS, ("seed", "device"))
+    return {**cfg, **section_keys("metaballs", ("width", "radius"))}
 
 
 def metaballs_report_tables():
-    return expand("results/metaballs/{table}.csv", table=("targets", "metrics", "timing", "data"))
+    tables = ("targets", "metrics", "timing", "data")
+    return expand("results/metaballs/{table}.csv", table=tables)
 
 
 def metaballs_report_figures():
-    names = ("comparison", "accuracy_by_scene", "demo_network_vs_raymarch", "temporal_stability")
-    names += ("frame_time_vs_balls", "examples")
-    return expand("results/metaballs/figures/{name}.png", name=names) + ["results/metaballs/figures/demo.gif"]
-
-
+    names = (
+        "comparison",
+        "accuracy_by_scene",
+        "demo_network_vs_raymarch",
+        "temporal_stability",
+        "frame_time_vs_balls",
+        "examples",
+    )
+    figures = expand("results/metaballs/figures/{name}.png", name=names)
+    return figures + ["results/metaballs/figures/demo.gif"]
 
 
 rule metaballs_examples:
@@ -45,33 +69,43 @@ rule metaballs_examples:
         examples=directory("results/metaballs/{split}"),
         manifest="results/metaballs/{split}_manifest.csv",
         balls="results/metaballs/{split}_balls.csv",
-    params:
-        cfg=metaballs_params(),
     log:
         "results/logs/metaballs_examples/{split}.log",
     benchmark:
         "results/benchmarks/metaballs_examples/{split}.tsv"
-    threads: workflow.cores
+    wildcard_constraints:
+        split="|".join(METABALLS_SPLITS),
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=metaballs_examples_params,
     script:
         "../scripts/metaballs_examples.py"
 
 
 rule metaballs_summary:
     input:
-        manifests=expand("results/metaballs/{split}_manifest.csv", split=METABALL_SPLITS),
-        examples=expand("results/metaballs/{split}", split=METABALL_SPLITS),
+        manifests=expand(
+            "results/metaballs/{split}_manifest.csv", split=METABALLS_SPLITS
+        ),
+        examples=expand("results/metaballs/{split}", split=METABALLS_SPLITS),
     output:
         csv="results/metaballs/data.csv",
-        figure=report("results/metaballs/figures/examples.png", category="Metaballs"),
+        figure=report(
+            "results/metaballs/figures/examples.png",
+            category="Metaballs",
+            labels={"figure": "AB examples"},
+        ),
     log:
         "results/logs/metaballs_summary/metaballs_summary.log",
     benchmark:
         "results/benchmarks/metaballs_summary/metaballs_summary.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg={},
     script:
         "../scripts/metaballs_summary.py"
 
@@ -87,17 +121,19 @@ rule metaballs_train:
     output:
         checkpoint="results/metaballs/{variant}.pt",
         loss="results/metaballs/{variant}_loss.csv",
-    params:
-        cfg=metaballs_model_params,
     log:
         "results/logs/metaballs_train/{variant}.log",
     benchmark:
         "results/benchmarks/metaballs_train/{variant}.tsv"
+    wildcard_constraints:
+        variant="|".join(METABALLS_VARIANTS),
+    conda:
+        "../envs/neurender.yaml"
     threads: config["metaballs_model"]["threads"]
     resources:
         gpu=1,
-    conda:
-        "../envs/neurender.yaml"
+    params:
+        cfg=metaballs_train_params,
     script:
         "../scripts/metaballs_train.py"
 
@@ -107,48 +143,72 @@ rule metaballs_evaluate:
         test_dir="results/metaballs/test",
         test_manifest="results/metaballs/test_manifest.csv",
         test_balls="results/metaballs/test_balls.csv",
-        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALL_VARIANTS),
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
     output:
         metrics="results/metaballs/metrics.csv",
         examples="results/metaballs/metrics_examples.csv",
         by_scene="results/metaballs/accuracy_by_scene.csv",
-        figure=report("results/metaballs/figures/comparison.png", category="Metaballs"),
-        scene_figure=report("results/metaballs/figures/accuracy_by_scene.png", category="Metaballs"),
-    params:
-        cfg=metaballs_model_params,
-        variants=METABALL_VARIANTS,
+        figure=report(
+            "results/metaballs/figures/comparison.png",
+            category="Metaballs",
+            labels={"figure": "held-out comparison"},
+        ),
+        scene_figure=report(
+            "results/metaballs/figures/accuracy_by_scene.png",
+            category="Metaballs",
+            labels={"figure": "accuracy by scene"},
+        ),
     log:
         "results/logs/metaballs_evaluate/metaballs_evaluate.log",
     benchmark:
         "results/benchmarks/metaballs_evaluate/metaballs_evaluate.tsv"
-    threads: workflow.cores
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=metaballs_evaluate_params(),
     script:
         "../scripts/metaballs_evaluate.py"
 
 
 rule metaballs_demo:
     input:
-        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALL_DEMO_VARIANTS),
+        checkpoints=expand(
+            "results/metaballs/{variant}.pt", variant=METABALLS_DEMO_VARIANTS
+        ),
     output:
         frames="results/metaballs/demo_frames.csv",
         timing="results/metaballs/timing.csv",
         balls="results/metaballs/frame_time_vs_balls.csv",
-        balls_png=report("results/metaballs/figures/frame_time_vs_balls.png", category="Metaballs"),
-        gif=report("results/metaballs/figures/demo.gif", category="Metaballs"),
-        strip=report("results/metaballs/figures/demo_network_vs_raymarch.png", category="Metaballs"),
-        stability=report("results/metaballs/figures/temporal_stability.png", category="Metaballs"),
-    params:
-        cfg=metaballs_model_params,
-        variants=METABALL_DEMO_VARIANTS,
+        balls_png=report(
+            "results/metaballs/figures/frame_time_vs_balls.png",
+            category="Metaballs",
+            labels={"figure": "frame time vs balls"},
+        ),
+        gif=report(
+            "results/metaballs/figures/demo.gif",
+            category="Metaballs",
+            labels={"figure": "demo animation"},
+        ),
+        strip=report(
+            "results/metaballs/figures/demo_network_vs_raymarch.png",
+            category="Metaballs",
+            labels={"figure": "demo frames"},
+        ),
+        stability=report(
+            "results/metaballs/figures/temporal_stability.png",
+            category="Metaballs",
+            labels={"figure": "temporal stability"},
+        ),
     log:
         "results/logs/metaballs_demo/metaballs_demo.log",
     benchmark:
         "results/benchmarks/metaballs_demo/metaballs_demo.tsv"
-    threads: workflow.cores
     conda:
         "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=metaballs_demo_params(),
     script:
         "../scripts/metaballs_demo.py"
 
@@ -159,14 +219,14 @@ rule metaballs_targets:
         timing="results/metaballs/timing.csv",
     output:
         targets="results/metaballs/targets.csv",
-    params:
-        paper_scale=config["metaballs"]["width"] >= 512,
     log:
         "results/logs/metaballs_targets/metaballs_targets.log",
     benchmark:
         "results/benchmarks/metaballs_targets/metaballs_targets.tsv"
-    threads: 1
     conda:
         "../envs/neurender.yaml"
+    threads: 1
+    params:
+        cfg=section_keys("metaballs", ("width",)),
     script:
         "../scripts/metaballs_targets.py"

@@ -1,10 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.metaballs.data import summarise
+from neurender.jobs import run
+from neurender.metaballs import jobs
 
-log_to_file(snakemake.log[0])
-summarise(
-    snakemake.input.manifests,
-    snakemake.output.csv,
-    snakemake.output.figure,
-    snakemake.input.examples,
-)
+run(snakemake, jobs.metaballs_summary)

@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.metaballs.model import train_generator
+from neurender.jobs import run
+from neurender.metaballs import jobs
 
-log_to_file(snakemake.log[0])
-train_generator(
-    dict(snakemake.input.items()),
-    snakemake.params.cfg,
-    snakemake.threads,
-    snakemake.output.checkpoint,
-    snakemake.output.loss,
-)
+run(snakemake, jobs.metaballs_train)

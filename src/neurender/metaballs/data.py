@@ -20,12 +20,12 @@ import torch
 from tqdm import tqdm
 
 from neurender import io
+from neurender.metaball import Scene
 from neurender.metaballs import ab, inputs, raymarch, scenes
-from neurender.plots import plt, save_figure
 from neurender.rng import torch_generator
 
 
-def min_overlap_depth_gap(scene: scenes.Scene, width: int) -> float:
+def min_overlap_depth_gap(scene: Scene, width: int) -> float:
     """Smallest centre-depth gap between two balls whose projected circles overlap."""
     centre = scenes.project(scene.centres, width)
     radius = inputs.projected_radius(scene, width)
@@ -36,8 +36,12 @@ def min_overlap_depth_gap(scene: scenes.Scene, width: int) -> float:
     return float(gaps.min()) if len(gaps) else float("nan")
 
 
-def example_scene(cfg: dict, split: str, index: int) -> scenes.Scene:
-    """The (deterministic) scene of example ``index`` of ``split``, float32."""
+def example_scene(cfg: dict, split: str, index: int) -> Scene:
+    """The (deterministic) scene of example ``index`` of ``split``, float32.
+
+    Args:
+        cfg: ``seed``, ``balls`` [min, max] (count), ``radius`` [min, max] (world units).
+    """
     gen = torch_generator(cfg["seed"], "metaballs", split, index)
     lo, hi = cfg["balls"]
     count = int(torch.randint(lo, hi + 1, (1,), generator=gen))
@@ -48,7 +52,7 @@ def example_scene(cfg: dict, split: str, index: int) -> scenes.Scene:
 BALL_COLUMNS = ["example", "ball", "x", "y", "z", "radius", "red", "green", "blue"]
 
 
-def ball_rows(example: int, scene: scenes.Scene) -> list[dict]:
+def ball_rows(example: int, scene: Scene) -> list[dict]:
     """One :data:`BALL_COLUMNS` row per ball of an example's scene."""
     values = torch.cat([scene.centres, scene.radii[:, None], scene.colours], 1).double()
     return [
@@ -57,13 +61,13 @@ def ball_rows(example: int, scene: scenes.Scene) -> list[dict]:
     ]
 
 
-def read_scenes(path: str | Path) -> dict[int, scenes.Scene]:
+def read_scenes(path: str | Path) -> dict[int, Scene]:
     """The float32 scene of every example in a ``{split}_balls.csv`` table."""
     table = io.read_csv(path, BALL_COLUMNS)
     out = {}
     for example, rows in table.sort_values(["example", "ball"]).groupby("example"):
         values = torch.tensor(rows[BALL_COLUMNS[2:]].to_numpy(), dtype=torch.float32)
-        out[int(example)] = scenes.Scene(values[:, :3], values[:, 3], values[:, 4:])
+        out[int(example)] = Scene(values[:, :3], values[:, 3], values[:, 4:])
     return out
 
 
@@ -74,7 +78,7 @@ def make_example(cfg: dict, split: str, index: int, out_dir: Path) -> tuple[dict
     start = time.perf_counter()
     buffers = raymarch.render_gbuffers(scene, width)
     seconds = time.perf_counter() - start
-    image = ab.pack(inputs.draw_inputs(scene, width), buffers.colour, buffers.depth, buffers.normal)
+    image = ab.pack(inputs.draw_inputs(scene, width), buffers.stack())
     file = out_dir / f"example_{index:05d}.png"
     ab.write_ab(file, image)
     row = {
@@ -98,20 +102,20 @@ def _make_example(args: tuple[dict, str, int, Path]) -> tuple[dict, list[dict]]:
 
 
 def generate_split(
-    split: str, cfg: dict, workers: int, out_dir: str, manifest: str, balls_csv: str
-) -> None:
-    """Write the AB examples of one split, their manifest and their balls.
+    cfg: dict, split: str, count: int, workers: int, out_dir: str | Path
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Write the ``count`` AB examples of one split to ``out_dir``; their manifest and
+    their balls (:data:`BALL_COLUMNS`) as tables.
 
     Examples are ray-marched by ``workers`` forked single-threaded processes (small
     per-ray tensors scale across processes, not across torch threads).
 
     Args:
-        cfg: ``seed``, ``width``, ``examples`` (per split), ``balls`` [min, max],
-            ``radius`` [min, max].
+        cfg: ``seed``, ``width`` and the keys of :func:`example_scene`.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(cfg, split, i, out) for i in range(cfg["examples"][split])]
+    jobs = [(cfg, split, i, out) for i in range(count)]
     if workers > 1:
         pool = ProcessPoolExecutor(
             workers, mp_context=get_context("fork"), initializer=_single_threaded
@@ -129,53 +133,4 @@ def generate_split(
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
-    io.write_csv(balls_csv, pd.DataFrame(balls, columns=BALL_COLUMNS))
-    io.write_csv(manifest, pd.DataFrame(rows))
-
-
-def summarise(
-    manifests: list[str], out_csv: str, out_png: str, example_dirs: list[str], count: int = 4
-) -> None:
-    """Tidy per-split statistics of the examples and a strip of AB images."""
-    rows = []
-    for path in manifests:
-        m = io.read_csv(path, ["split", "balls", "coverage", "seconds"])
-        split = str(m["split"].iloc[0])
-        stats = {
-            "examples": len(m),
-            "balls_mean": m["balls"].mean(),
-            "coverage_mean": m["coverage"].mean(),
-            "min_depth_separation_median": m["min_depth_separation"].median(),
-            "raymarch_seconds_per_example": m["seconds"].mean(),
-        }
-        rows += [
-            {
-                "method": "metaballs",
-                "dataset": "examples",
-                "model": "ray marcher",
-                "split": split,
-                "metric": k,
-                "value": float(v),
-            }
-            for k, v in stats.items()
-        ]
-    io.write_csv(out_csv, pd.DataFrame(rows))
-    files = sorted(Path(example_dirs[0]).glob("example_*.png"))[:count]
-    fig, axes = plt.subplots(len(files), 1, figsize=(7.5, 2.6 * len(files)), squeeze=False)
-    for ax, f in zip(axes[:, 0], files, strict=True):
-        x = ab.read_ab(f)
-        panels = [
-            x["inputs"][:3],
-            x["inputs"][3:].expand(3, -1, -1),
-            x["colour"],
-            x["depth"].expand(3, -1, -1),
-            x["normal"],
-        ]
-        ax.imshow(torch.cat(panels, 2).permute(1, 2, 0).numpy())
-        ax.set_title(
-            f"{f.stem}: input colour | input depth | target colour | target depth | target normal",
-            fontsize=7,
-        )
-        ax.axis("off")
-    fig.tight_layout()
-    save_figure(fig, out_png)
+    return pd.DataFrame(rows), pd.DataFrame(balls, columns=BALL_COLUMNS)

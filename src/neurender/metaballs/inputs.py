@@ -8,7 +8,7 @@ ball's colour; A = the normalised depth of the centre. Nearer circles are drawn 
 ones. Background: RGB 0, A 1 (far).
 
 Sphere impostors: every ball ray-traced as a sphere, the nearest hit per pixel, as G-buffers
-in the layout of :mod:`neurender.metaballs.raymarch`. Both cost one test per ball and pixel
+in the layout of :mod:`neurender.metaballs.gbuffers`. Both cost one test per ball and pixel
 (a billboard per ball on a GPU), never a march through the field.
 """
 
@@ -19,8 +19,8 @@ import math
 import torch
 
 from neurender.metaball import THRESHOLD, Scene
-from neurender.metaballs.raymarch import GBuffers
-from neurender.metaballs.scenes import FOV_DEG, MAX_DEPTH, normalised_depth, pixel_rays, project
+from neurender.metaballs.gbuffers import GBuffers, from_hits
+from neurender.metaballs.scenes import FOV_DEG, normalised_depth, pixel_rays, project
 
 # Floor of 1 - G in ``inflated_radii``: a ball buried in its neighbours' field grows at most
 # 1 / sqrt(0.3) = 1.8 times instead of without bound.
@@ -127,15 +127,7 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     colour[:, hit] = scene.colours[ball].T
     points = rays[hit] * dist[hit, None]
     normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
-    mask = torch.isfinite(dist)
-    depth = torch.where(mask, normalised_depth(dist.nan_to_num(posinf=MAX_DEPTH)), 1.0)
-    shape = (width, width)
-    return GBuffers(
-        colour.reshape(3, *shape),
-        depth.reshape(1, *shape),
-        normal.reshape(3, *shape),
-        mask.reshape(shape),
-    )
+    return from_hits(dist, colour, normal, width)
 
 
 def inflated_radii(scene: Scene) -> torch.Tensor:

@@ -4,8 +4,8 @@ View space: camera at the origin looking along +z, x right, y up. A pixel's ray 
 is ``normalize((s tan(fov), t tan(fov), 1))`` with ``s, t`` in [-1, 1] across the image
 (listing 5.2: ``FOV`` = 30 degrees at the image edge). Image row 0 is the top (t = 1).
 Depth is the distance along the ray, normalised to [0, 1] between ``MIN_DEPTH`` and
-``MAX_DEPTH`` (background = 1). Field (eq. 5.1): ``F(X) = sum_i r_i^2 / |X - P_i|^2``,
-surface at ``F = THRESHOLD``.
+``MAX_DEPTH`` (background = 1). The balls' field and surface (eq. 5.1) are those of
+:mod:`neurender.metaball`.
 """
 
 from __future__ import annotations

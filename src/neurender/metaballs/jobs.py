@@ -1,0 +1,101 @@
+"""The image-space metaballs stage's jobs, one per rule of ``workflow/rules/metaballs.smk``.
+
+Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
+``(inputs, outputs, params, threads)``; ``params`` holds exactly the config keys the job
+reads (keys of ``metaballs`` and ``metaballs_model``, ``seed``, ``device``) and the
+wildcard values.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from neurender import io
+from neurender.metaballs import (
+    DEMO_VARIANTS,
+    VARIANTS,
+    data,
+    demo,
+    evaluate,
+    figures,
+    speed,
+    summary,
+    training,
+)
+from neurender.metaballs.renderer import load_renderers
+
+#: AB examples shown in the data summary figure (from the first split).
+SHOWN_EXAMPLES = 4
+
+
+def metaballs_examples(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """One split's AB examples (``examples`` of them, ``split``), its manifest and balls."""
+    manifest, balls = data.generate_split(
+        params, params["split"], params["examples"], threads, outputs["examples"]
+    )
+    io.write_csv(outputs["balls"], balls)
+    io.write_csv(outputs["manifest"], manifest)
+
+
+def metaballs_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Tidy statistics of every split's examples and a figure of the first few."""
+    rows = []
+    for path in inputs["manifests"]:
+        manifest = io.read_csv(path, ["split", "balls", "coverage", "seconds"])
+        rows += summary.data_rows(manifest)
+    io.write_csv(outputs["csv"], pd.DataFrame(rows))
+    files = sorted(Path(inputs["examples"][0]).glob("example_*.png"))[:SHOWN_EXAMPLES]
+    figures.examples_figure(files, outputs["figure"])
+
+
+def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """One variant's generator, trained on the train split and validated on val."""
+    training.train_generator(inputs, params, threads, outputs["checkpoint"], outputs["loss"])
+
+
+def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) and the sphere
+    baselines scored on the held-out scenes: per example, means, by scene complexity,
+    and their figures."""
+    columns = ["example", "file", "balls", "min_depth_separation"]
+    manifest = io.read_csv(inputs["test_manifest"], columns)
+    scene_of = data.read_scenes(inputs["test_balls"])
+    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    frame, showcase = evaluate.score_test_set(
+        inputs["test_dir"], manifest, scene_of, renderers, params["width"]
+    )
+    io.write_csv(outputs["examples"], frame)
+    io.write_csv(outputs["metrics"], evaluate.mean_metrics(frame))
+    by_scene = evaluate.accuracy_by_scene(frame)
+    io.write_csv(outputs["by_scene"], by_scene)
+    figures.accuracy_figure(by_scene, outputs["scene_figure"])
+    figures.comparison_figure(showcase, outputs["figure"])
+
+
+def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The animated demo by each of :data:`DEMO_VARIANTS` (``checkpoints`` in that order)
+    and by ray marching: frames as GIF and strip, per-frame times, temporal stability,
+    frame time against the number of balls, and the timing table."""
+    renderers = load_renderers(DEMO_VARIANTS, inputs["checkpoints"], params["device"], threads)
+    sequence = demo.render_sequence(
+        renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
+    )
+    io.write_csv(outputs["frames"], sequence.timings)
+    frames = figures.demo_frames(sequence.pictures)
+    figures.demo_gif(frames, outputs["gif"])
+    figures.demo_strip(frames, outputs["strip"])
+    flips = demo.silhouette_flips(sequence.silhouettes, [*renderers, demo.RAY_MARCHING])
+    figures.stability_figure(flips, outputs["stability"])
+    balls = speed.frame_time_vs_balls(renderers, params)
+    figures.frame_time_figure(balls, outputs["balls_png"])
+    io.write_csv(outputs["timing"], speed.timing_table(sequence.timings, flips, balls))
+    io.write_csv(outputs["balls"], balls)
+
+
+def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The stage's targets, each stated as met or missed, at image width ``width``."""
+    metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
+    timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
+    io.write_csv(outputs["targets"], summary.targets(metrics, timing, params["width"]))

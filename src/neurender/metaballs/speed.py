@@ -1,0 +1,72 @@
+"""Frame times of the networks against the ray marcher (thesis 6.3) and the demo's timing
+table.
+
+Times are milliseconds of wall clock, medians of :func:`neurender.timing.timed`; a
+network's frame is drawing its inputs plus the network, whose cost does not depend on the
+number of balls.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import pandas as pd
+import torch
+
+from neurender.metaballs import raymarch, scenes
+from neurender.metaballs.demo import RAY_MARCHING
+from neurender.metaballs.renderer import MetaballRenderer
+from neurender.rng import torch_generator
+from neurender.tables import tidy_rows
+from neurender.timing import timed
+
+RAY_MARCHER = "ray marcher"
+
+
+def frame_time_vs_balls(
+    renderers: Mapping[str, MetaballRenderer], cfg: Mapping, repeats: int = 5
+) -> pd.DataFrame:
+    """Rows ``balls, model, ms_per_frame`` for a random scene of each of ``timing_balls``
+    (``seed``, ``radius`` [min, max], ``width``): the ray marcher, then each network."""
+    rows = []
+    for n in cfg["timing_balls"]:
+        gen = torch_generator(cfg["seed"], "timing", n)
+        scene = scenes.sample_scene(n, tuple(cfg["radius"]), gen).to(torch.float32)
+        _, t_march = timed(raymarch.render_gbuffers, scene, cfg["width"], repeats=repeats)
+        rows.append({"balls": n, "model": RAY_MARCHER, "ms_per_frame": 1e3 * t_march})
+        for name, r in renderers.items():
+            x, t_in = timed(r.inputs, scene, repeats=repeats)
+            _, t_net = timed(r, x[None], repeats=repeats)
+            rows.append({"balls": n, "model": name, "ms_per_frame": 1e3 * (t_in + t_net)})
+    return pd.DataFrame(rows)
+
+
+def timing_table(timings: pd.DataFrame, flips: pd.DataFrame, balls: pd.DataFrame) -> pd.DataFrame:
+    """Tidy ``timing.csv``: per network the demo's mean times per frame, its silhouette
+    flips (and the ray marcher's) and its speed-up over ray marching at the most balls;
+    then every ``ms_per_frame`` of ``balls``.
+
+    Args:
+        timings: :attr:`neurender.metaballs.demo.Sequence.timings`.
+        flips: :func:`neurender.metaballs.demo.silhouette_flips`.
+        balls: :func:`frame_time_vs_balls`.
+    """
+    most = int(balls["balls"].max())
+    at_most = balls[balls["balls"] == most].drop_duplicates("model")
+    at_most = at_most.set_index("model")["ms_per_frame"]
+    rows = []
+    for name, part in timings.groupby("model", sort=False):
+        summary = {
+            "input_ms_per_frame": part.input_ms.mean(),
+            "network_ms_per_frame": part.network_ms.mean(),
+            "shading_ms_per_frame": part.shading_ms.mean(),
+            "raymarch_ms_per_frame": part.raymarch_ms.mean(),
+            "silhouette_flips": flips[name].mean(),
+            "silhouette_flips_raymarch": flips[RAY_MARCHING].mean(),
+            f"speedup_at_{most}_balls": at_most[RAY_MARCHER] / at_most[name],
+        }
+        rows += tidy_rows("metaballs", "demo", name, "timing", summary)
+    for r in balls.itertuples():
+        dataset = f"{int(r.balls)} balls"
+        rows += tidy_rows("metaballs", dataset, r.model, "timing", {"ms_per_frame": r.ms_per_frame})
+    return pd.DataFrame(rows)

@@ -1,0 +1,80 @@
+"""The metaballs stage's summary tables: statistics of the examples and the targets.
+
+Targets (thresholds from ``report/targets.csv``, method ``metaballs``): per network a
+silhouette IoU and a mean normal error (stricter at the paper's scale, ``W >= 512``),
+better than the isolated-sphere baseline on every metric, and a frame (inputs + network)
+faster than ray marching at the most balls.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
+
+#: Image width from which the paper-scale thresholds apply (the thesis used 512).
+PAPER_SCALE_WIDTH = 512
+#: The baseline every network must beat, and the suffix of every no-learning baseline.
+BASELINE = "isolated spheres"
+BASELINE_SUFFIX = " spheres"
+#: Metric prefixes where lower is better (the rest: higher is better).
+LOWER_IS_BETTER = ("l1_", "depth_error", "normal_error")
+
+
+def data_rows(manifest: pd.DataFrame) -> list[dict]:
+    """Tidy statistics of one split's examples from its manifest
+    (:mod:`neurender.metaballs.data`)."""
+    stats = {
+        "examples": len(manifest),
+        "balls_mean": manifest["balls"].mean(),
+        "coverage_mean": manifest["coverage"].mean(),
+        "min_depth_separation_median": manifest["min_depth_separation"].median(),
+        "raymarch_seconds_per_example": manifest["seconds"].mean(),
+    }
+    split = str(manifest["split"].iloc[0])
+    return tidy_rows("metaballs", "examples", "ray marcher", split, stats)
+
+
+def accuracy_targets(metrics: pd.DataFrame, width: int) -> list[Target]:
+    """Per network (every model of ``metrics`` but the baselines): IoU, normal error and
+    every metric against the isolated spheres."""
+    scale = "_paper_scale" if width >= PAPER_SCALE_WIDTH else ""
+    iou_min = threshold("metaballs", f"iou_depth{scale}")
+    angle_max = threshold("metaballs", f"normal_error_deg{scale}")
+    models = [m for m in metrics["model"].unique() if not m.endswith(BASELINE_SUFFIX)]
+    out = []
+    for model in models:
+        iou = lookup(metrics, model=model, metric="iou_depth")
+        angle = lookup(metrics, model=model, metric="normal_error_mean_deg")
+        out += [
+            Target(model, f"silhouette IoU (depth) >= {iou_min:g}", iou, iou >= iou_min),
+            Target(model, f"mean normal error <= {angle_max:g} deg", angle, angle <= angle_max),
+        ]
+        for metric in sorted(set(metrics["metric"])):
+            ours = lookup(metrics, model=model, metric=metric)
+            base = lookup(metrics, model=BASELINE, metric=metric)
+            better = ours < base if metric.startswith(LOWER_IS_BETTER) else ours > base
+            check = f"better than {BASELINE} on {metric} ({base:.4g})"
+            out.append(Target(model, check, ours, bool(better)))
+    return out
+
+
+def speed_targets(timing: pd.DataFrame) -> list[Target]:
+    """Per network: its frame at least the threshold's times faster than ray marching."""
+    least = threshold("metaballs", "speedup")
+    speedups = timing[timing["metric"].str.startswith("speedup_at_")]
+    return [
+        Target(
+            s.model,
+            f"frame >= {least:g}x faster than ray marching ({s.metric})",
+            float(s.value),
+            float(s.value) >= least,
+        )
+        for s in speedups.itertuples()
+    ]
+
+
+def targets(metrics: pd.DataFrame, timing: pd.DataFrame, width: int) -> pd.DataFrame:
+    """The stage's targets (:data:`neurender.tables.TARGET_COLUMNS`) from ``metrics.csv``
+    and ``timing.csv`` at image width ``width``."""
+    return target_table("metaballs", accuracy_targets(metrics, width) + speed_targets(timing))

@@ -1,0 +1,101 @@
+import numpy as np
+import pytest
+import torch
+
+from neurender.metaball import Scene
+from neurender.metaballs import evaluate, gbuffers, inputs, raymarch, scenes
+
+
+def test_nearer_circles_are_drawn_over_farther_ones():
+    near = Scene(
+        torch.tensor([[0.0, 0.0, 10.0], [0.0, 0.0, 20.0]], dtype=torch.float64),
+        torch.tensor([1.0, 2.0], dtype=torch.float64),
+        torch.tensor([[1.0, 0, 0], [0, 1.0, 0]], dtype=torch.float64),
+    )
+    img = inputs.draw_inputs(near, 64)
+    # both rings have the same projected radius (r / z equal): the near (red) one wins
+    ring = img[3] < 1
+    assert ring.any()
+    assert (img[0][ring] == 1).all() and (img[1][ring] == 0).all()
+    assert img[3][ring].unique().tolist() == [pytest.approx(3.0 / 18.0)]
+    assert img[3][~ring].eq(1).all()
+
+
+def _painted_circles(scene, width):
+    """Reference: the thesis's billboards drawn one by one, far to near."""
+    image = torch.zeros(4, width, width, dtype=torch.float64)
+    image[3] = 1.0
+    centre = scenes.project(scene.centres, width)
+    radius = inputs.projected_radius(scene, width)
+    depth = scenes.normalised_depth(scene.centres.norm(dim=1))
+    coords = torch.arange(width, dtype=torch.float64) + 0.5
+    for i in torch.argsort(depth, descending=True).tolist():
+        dist = torch.hypot(coords[None, :] - centre[i, 0], coords[:, None] - centre[i, 1])
+        ring = (dist > 0.9 * radius[i]) & (dist < radius[i])
+        image[:3, ring] = scene.colours[i][:, None]
+        image[3, ring] = depth[i]
+    return image
+
+
+def test_vectorised_circles_equal_painting_far_to_near():
+    gen = torch.Generator().manual_seed(2)
+    scene = scenes.sample_scene(25, (0.6, 1.6), gen)
+    torch.testing.assert_close(inputs.draw_inputs(scene, 48), _painted_circles(scene, 48))
+
+
+def test_isolated_sphere_baseline_equals_the_field_for_one_ball(make_scene):
+    scene = make_scene([[1.0, -0.5, 14.0]], [1.5])
+    a = inputs.draw_spheres(scene, 40).stack()
+    b = raymarch.render_gbuffers(scene, 40).stack()
+    sa, sb = gbuffers.silhouette_depth(a), gbuffers.silhouette_depth(b)
+    inside = sa & sb
+    assert evaluate.iou(sa, sb) > 0.97
+    np.testing.assert_allclose(
+        a[gbuffers.DEPTH][0][inside], b[gbuffers.DEPTH][0][inside], atol=1e-5
+    )
+    assert evaluate.normal_angles(a, b, inside).max() < 0.1
+
+
+def test_inflated_radii_single_ball_and_pair(make_scene):
+    one = make_scene([[0.5, 0.0, 15.0]], [1.3])
+    assert torch.equal(inputs.inflated_radii(one), one.radii)  # exact for an isolated ball
+    pair = make_scene([[0.0, 0.0, 14.0], [3.0, 0.0, 14.0]], [1.2, 0.9])
+    # each ball sees the other's field r_j^2 / d^2 at its centre: r / sqrt(1 - G)
+    expected = torch.tensor([1.2 / (1 - 0.81 / 9) ** 0.5, 0.9 / (1 - 1.44 / 9) ** 0.5])
+    torch.testing.assert_close(inputs.inflated_radii(pair), expected.double())
+    buried = make_scene([[0.0, 0.0, 14.0], [0.1, 0.0, 14.0]], [1.5, 1.5])  # G >> 1: capped
+    torch.testing.assert_close(
+        inputs.inflated_radii(buried), buried.radii / inputs.MIN_FIELD_GAP**0.5
+    )
+
+
+def test_inflated_spheres_are_closer_to_the_blend_than_isolated_ones():
+    gen = torch.Generator().manual_seed(4)
+    scene = scenes.sample_scene(15, (0.8, 1.6), gen)
+    truth = raymarch.render_gbuffers(scene, 48).stack()
+    isolated = evaluate.example_metrics(inputs.draw_spheres(scene, 48).stack(), truth)
+    inflated = evaluate.example_metrics(inputs.inflated_spheres(scene, 48).stack(), truth)
+    assert inflated["iou_depth"] > isolated["iou_depth"]
+    assert inflated["normal_error_mean_deg"] < isolated["normal_error_mean_deg"]
+
+
+def _dense_spheres(scene, width):
+    """Reference: every ray against every sphere, nearest hit."""
+    d = scenes.pixel_rays(width, scene.centres.dtype).reshape(-1, 3)
+    b = d @ scene.centres.T
+    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())
+    t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), torch.inf)
+    dist, ball = torch.where(t > 0, t, torch.inf).min(1)
+    hit = torch.isfinite(dist)
+    normal = (d[hit] * dist[hit, None] - scene.centres[ball[hit]]) / scene.radii[ball[hit], None]
+    return hit.reshape(width, width), scenes.normalised_depth(dist[hit]), (normal + 1) / 2
+
+
+def test_rasterised_spheres_equal_every_ray_against_every_sphere():
+    # big balls near the image edges: their exact screen bounds matter
+    scene = scenes.sample_scene(30, (1.0, 3.0), torch.Generator().manual_seed(7))
+    g = inputs.draw_spheres(scene, 64)
+    hit, depth, normal = _dense_spheres(scene, 64)
+    assert torch.equal(g.mask, hit) and hit.any() and (~hit).any()
+    torch.testing.assert_close(g.depth[0][hit], depth)
+    torch.testing.assert_close(g.normal[:, hit].T, normal)

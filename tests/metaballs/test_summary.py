@@ -1,0 +1,62 @@
+import pandas as pd
+
+from neurender.metaballs import summary
+from neurender.tables import TARGET_COLUMNS
+
+
+def _metrics(rows):
+    return pd.DataFrame(rows, columns=["model", "metric", "value"])
+
+
+def test_targets_state_each_check_as_met_or_missed():
+    metrics = _metrics(
+        [
+            ("good", "iou_depth", 0.99),
+            ("good", "normal_error_mean_deg", 2.0),
+            ("bad", "iou_depth", 0.5),
+            ("bad", "normal_error_mean_deg", 40.0),
+            ("isolated spheres", "iou_depth", 0.8),
+            ("isolated spheres", "normal_error_mean_deg", 20.0),
+            ("inflated spheres", "iou_depth", 0.85),
+            ("inflated spheres", "normal_error_mean_deg", 10.0),
+        ]
+    )
+    timing = _metrics([("good", "speedup_at_145_balls", 50.0), ("good", "ms_per_frame", 1.0)])
+    table = summary.targets(metrics, timing, width=128)
+    assert list(table.columns) == list(TARGET_COLUMNS)
+    assert set(table.subject) == {"good", "bad"}  # baselines are not checked
+    assert table[table.subject == "good"].met.all()
+    assert not table[table.subject == "bad"].met.any()
+    speed_row = table[table.check.str.contains("faster")]
+    assert speed_row.measured.tolist() == [50.0]
+
+
+def test_paper_scale_targets_are_stricter():
+    metrics = _metrics([("net", "iou_depth", 0.92), ("net", "normal_error_mean_deg", 10.0)])
+    timing = _metrics([])
+    default = summary.targets(metrics, timing, width=128)
+    paper = summary.targets(metrics, timing, width=summary.PAPER_SCALE_WIDTH)
+    checks = ["silhouette IoU", "mean normal error"]
+    for check in checks:
+        assert default[default.check.str.startswith(check)].met.all()
+        assert not paper[paper.check.str.startswith(check)].met.any()
+
+
+def test_data_rows_summarise_a_split():
+    manifest = pd.DataFrame(
+        {
+            "split": ["val", "val"],
+            "balls": [2, 4],
+            "coverage": [0.1, 0.3],
+            "min_depth_separation": [1.0, float("nan")],
+            "seconds": [0.5, 1.5],
+        }
+    )
+    rows = {r["metric"]: r["value"] for r in summary.data_rows(manifest)}
+    assert rows == {
+        "examples": 2.0,
+        "balls_mean": 3.0,
+        "coverage_mean": 0.2,
+        "min_depth_separation_median": 1.0,
+        "raymarch_seconds_per_example": 1.0,
+    }
