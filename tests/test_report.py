@@ -22,7 +22,8 @@ def test_report_shows_measurements_and_marks_unrun_sections(tmp_path):
     out = tmp_path / "report.html"
     report.build_report([res / "metrics.csv"], [res / "figures" / "example.png"], out)
     html = out.read_text()
-    assert "0.6" in html  # the mean of the two frames, not invented
+    # The table shows the mean of the two frames (0.5, 0.7), not either frame.
+    assert "<td>0.6</td>" in html and "<td>0.5</td>" not in html and "<td>0.7</td>" not in html
     assert "data:image/png;base64," in html
     assert html.count("has not been run") == 3  # ndr, metaballs, simplification
     assert "44.47" in html  # the paper's compression ratio stands beside ours

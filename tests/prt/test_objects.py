@@ -40,6 +40,7 @@ def test_user_mesh_disk_is_accepted(tmp_path):
     [
         (lambda: trimesh.creation.icosphere(1), "0 boundary loops"),
         (lambda: _two_disks(), "2 connected components"),
+        (lambda: _torus_with_a_hole(), "V - E \\+ F = .* = -1, so genus 1"),
     ],
 )
 def test_user_mesh_errors_name_file_and_finding(tmp_path, make, message):
@@ -55,3 +56,10 @@ def test_user_mesh_format_and_missing_file(tmp_path):
         objects.load_user_mesh(tmp_path / "x.fbx")
     with pytest.raises(FileNotFoundError, match="x.obj"):
         objects.load_user_mesh(tmp_path / "x.obj")
+
+
+def _torus_with_a_hole():
+    """A torus (trimesh.creation) with one triangle removed: one component, one boundary
+    loop, genus 1."""
+    torus = trimesh.creation.torus(1.0, 0.3, major_sections=24, minor_sections=12)
+    return trimesh.Trimesh(torus.vertices, torus.faces[1:])

@@ -2,8 +2,12 @@
 # live in its rules file.
 from snakemake.utils import validate
 
-# Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here.
+import neurender.config
+
+# Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here,
+# then the rules between keys (neurender/config.py), naming the keys and values.
 validate(config, schema="../schemas/config.schema.yaml")
+neurender.config.check(config)
 
 
 def section_keys(section, keys, top=(), **extra):

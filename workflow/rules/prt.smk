@@ -2,38 +2,11 @@
 # ray-traced SH transfer per frame -> ResNet U-Net per object and material, MoMoPRT
 # baseline, rendered-appearance evaluation, compression, timing and the paper's experiments.
 
-from neurender.lights import BUILTIN_PROBES
 from neurender.prt import (
     EXPERIMENTS,
     MATERIALS as PRT_MATERIALS,
-    OBJECTS,
     SPLITS as PRT_SPLITS,
 )
-
-
-def prt_check_names(kind, names, builtins, user):
-    for name in names:
-        if name not in builtins and name not in user:
-            raise ValueError(
-                f"config: {kind} {name!r} is neither built in ({', '.join(builtins)}) "
-                f"nor listed under the user entries ({', '.join(user) or 'none'})"
-            )
-
-
-prt_check_names(
-    "prt.objects entry", config["prt"]["objects"], OBJECTS, config["prt"]["user_meshes"]
-)
-prt_check_names(
-    "prt.probes entry",
-    config["prt"]["probes"],
-    BUILTIN_PROBES,
-    config["prt"]["user_probes"],
-)
-if config["prt"]["light"] not in config["prt"]["probes"]:
-    raise ValueError(
-        f"config: prt.light {config['prt']['light']!r} must be one of prt.probes "
-        f"{config['prt']['probes']}"
-    )
 
 PRT_OBJECTS = list(config["prt"]["objects"])
 PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()

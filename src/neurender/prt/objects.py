@@ -67,9 +67,11 @@ BUILTIN = {"head": head_mesh, "creature": creature_mesh, "cloth": cloth_mesh, "p
 
 
 def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> None:
-    """Raise ``ValueError`` naming ``name`` unless the mesh is one manifold disk."""
+    """Raise ``ValueError`` naming ``name`` unless the mesh is one manifold disk: one
+    component, one boundary loop and Euler characteristic ``V - E + F = 1`` (a torus with
+    a hole has one component and one boundary loop too, but ``V - E + F = -1``: genus 1)."""
     edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
     non_manifold = int((counts > 2).sum())
     components = len(
         trimesh.graph.connected_components(
@@ -83,6 +85,14 @@ def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> N
             f"{loops if loops >= 0 else 'undetermined'} boundary loops and "
             f"{non_manifold} non-manifold edges; a geometry image needs one connected surface "
             "with exactly one boundary loop (disk topology)"
+        )
+    used = len(np.unique(faces))
+    euler = used - len(unique) + len(faces)
+    if euler != 1:
+        raise ValueError(
+            f"mesh {name}: one component with one boundary loop, but Euler characteristic "
+            f"V - E + F = {used} - {len(unique)} + {len(faces)} = {euler}, so genus "
+            f"{(1 - euler) // 2}; a geometry image needs a disk (V - E + F = 1)"
         )
 
 

@@ -1,0 +1,165 @@
+"""Each cross-key config rule refuses a bad value, naming the key and the value."""
+
+import copy
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+from snakemake.utils import update_config, validate
+
+from neurender import config as rules
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def smoke():
+    """The smoke config as the workflow sees it: config.yaml updated by smoke.yaml, with
+    the schema's defaults filled in."""
+    cfg = yaml.safe_load((ROOT / "config/config.yaml").read_text())
+    update_config(cfg, yaml.safe_load((ROOT / "config/smoke.yaml").read_text()))
+    validate(cfg, str(ROOT / "workflow/schemas/config.schema.yaml"))
+    return cfg
+
+
+def _with(cfg, dotted, value):
+    changed = copy.deepcopy(cfg)
+    *path, key = dotted.split(".")
+    node = changed
+    for part in path:
+        node = node[part]
+    node[key] = value
+    return changed
+
+
+def test_the_shipped_configs_break_no_rule(smoke):
+    assert rules.problems(smoke) == []
+    for name in ("config.yaml", "paper.yaml"):
+        cfg = yaml.safe_load((ROOT / "config/config.yaml").read_text())
+        update_config(cfg, yaml.safe_load((ROOT / "config" / name).read_text()))
+        validate(cfg, str(ROOT / "workflow/schemas/config.schema.yaml"))
+        assert rules.problems(cfg) == [], name
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "named"),
+    [
+        ("metaballs.balls", [6, 2], "metaballs.balls = [6, 2]"),
+        ("metaballs.radius", [1.6, 0.6], "metaballs.radius = [1.6, 0.6]"),
+        ("ndr.primitives", [7, 2], "ndr.primitives = [7, 2]"),
+        ("prt.linear_range", [1.25, -0.25], "prt.linear_range = [1.25, -0.25]"),
+    ],
+)
+def test_reversed_ranges_are_refused(smoke, key, value, named):
+    found = rules.problems(_with(smoke, key, value))
+    assert len(found) == 1 and named in found[0] and "min <= max" in found[0]
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "named"),
+    [
+        ("prt.directions", 50, "prt.directions = 50: expected a perfect square"),
+        ("prt.reference_directions", 300, "prt.reference_directions = 300: expected a perfect"),
+        ("ndr.coarse_samples", 20, "ndr.coarse_samples = 20: expected a perfect square"),
+        (
+            "prt_model.equal_quality_directions",
+            [16, 60],
+            "prt_model.equal_quality_directions entry = 60",
+        ),
+    ],
+)
+def test_sample_counts_that_are_not_squares_are_refused(smoke, key, value, named):
+    found = rules.problems(_with(smoke, key, value))
+    assert any(named in f for f in found), found
+
+
+def test_a_reference_below_four_times_the_directions_is_refused(smoke):
+    found = rules.problems(_with(smoke, "prt.reference_directions", 144))
+    assert found == [
+        "prt.reference_directions = 144: expected at least 4 x prt.directions = 256 "
+        "(a clean reference for the test frames)"
+    ]
+
+
+def test_experiment_frames_above_the_training_frames_are_refused(smoke):
+    found = rules.problems(_with(smoke, "prt.experiment_train_frames", 7))
+    assert found == ["prt.experiment_train_frames = 7: expected at most prt.frames.train = 6"]
+
+
+def test_a_resolution_the_unet_cannot_halve_is_refused(smoke):
+    found = rules.problems(_with(smoke, "ndr.width", 35))
+    assert any("ndr.width = 35: expected a multiple of 2" in f for f in found)
+    found = rules.problems(_with(smoke, "prt.resolution", 15))
+    assert any("prt.resolution = 15: expected a multiple of 2" in f for f in found)
+
+
+def test_pix2pix_widths_must_be_powers_of_two(smoke):
+    found = rules.problems(_with(smoke, "metaballs.width", 48))
+    assert found == [
+        "metaballs.width = 48: expected a power of two >= 32 (the pix2pix U-Net halves it to 1)"
+    ]
+    found = rules.problems(_with(smoke, "ndr.width", 48))
+    assert any("ndr.width = 48: expected a power of two >= 32" in f for f in found)
+
+
+def test_a_noisy_test_reference_is_refused(smoke):
+    found = rules.problems(_with(smoke, "ndr.reference_spp", 32))
+    assert found == [
+        "ndr.reference_spp = 32: expected at least 8 x ndr.spp = 64 "
+        "(a clean reference for the test samples)"
+    ]
+
+
+def test_a_relit_sample_outside_the_test_split_is_refused(smoke):
+    found = rules.problems(_with(smoke, "ndr_model.relight_sample", 3))
+    assert found == ["ndr_model.relight_sample = 3: expected below ndr.samples.test = 3"]
+
+
+def test_a_missing_user_probe_folder_is_refused(smoke, tmp_path):
+    found = rules.problems(_with(smoke, "ndr.user_probes_dir", str(tmp_path / "maps")))
+    assert found == [
+        f"ndr.user_probes_dir = '{tmp_path / 'maps'}': expected a folder holding *.exr "
+        "lat-long maps"
+    ]
+
+
+def test_unknown_objects_and_missing_user_files_are_refused(smoke, tmp_path):
+    found = rules.problems(_with(smoke, "prt.objects", ["head", "teapot"]))
+    assert found and "prt.objects entry 'teapot' is neither built in" in found[0]
+    missing = {"blob": str(tmp_path / "blob.obj")}
+    found = rules.problems(_with(smoke, "prt.user_meshes", missing))
+    assert found == [f"prt user entry 'blob': file {tmp_path / 'blob.obj'} does not exist"]
+    found = rules.problems(_with(smoke, "prt.light", "studio"))
+    assert found == ["prt.light = 'studio': expected one of prt.probes ['sky', 'sunset']"]
+
+
+def test_a_head_budget_above_its_detail_is_refused(smoke):
+    found = rules.problems(_with(smoke, "simplify.head_triangles", 5000))
+    assert found and found[0].startswith("simplify.head_triangles = 5000")
+
+
+def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("metaballs:\n  balls: [6, 2]\n")
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "results/report.html",
+            "-n",
+            "--cores",
+            "1",
+            "--configfile",
+            "config/smoke.yaml",
+            str(bad),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode != 0
+    out = result.stdout + result.stderr
+    assert "metaballs.balls = [6, 2]: expected [min, max] with min <= max" in out
