@@ -113,6 +113,8 @@ rule simplify_optimise:
     output:
         mesh="results/simplification/{case}/optimised.npz",
         obj="results/simplification/{case}/optimised.obj",
+        mtl="results/simplification/{case}/optimised.mtl",
+        texture="results/simplification/{case}/optimised_texture.png",
         normal="results/simplification/{case}/optimised_normal.png",
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",

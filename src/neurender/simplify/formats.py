@@ -68,17 +68,32 @@ def read_texture(path: str | Path) -> np.ndarray:
 
 
 def write_obj(
-    path: str | Path, low: LowPolyMesh, positions: np.ndarray, albedo: np.ndarray, name: str
+    paths: dict[str, str | Path], low: LowPolyMesh, positions: np.ndarray, albedo: np.ndarray
 ) -> None:
-    """The atlas mesh at welded ``positions (V, 3)`` as OBJ with an MTL (``{name}.mtl``) and
-    its albedo texture as 8-bit PNG beside it (trimesh's exporter writes all three)."""
+    """The atlas mesh at welded ``positions (V, 3)`` as a textured OBJ: ``paths["obj"]``
+    refers to the material file ``paths["mtl"]``, which refers to the albedo texture
+    ``paths["texture"]`` (8-bit PNG), all three in one folder and each written atomically
+    (trimesh's exporter returns the files instead of writing them beside the OBJ)."""
+    mtl, texture = Path(paths["mtl"]), Path(paths["texture"])
+    if len({Path(p).parent for p in paths.values()}) != 1:
+        raise ValueError(f"OBJ, MTL and texture must share a folder; got {paths}")
+    material = trimesh.visual.material.SimpleMaterial(
+        image=Image.fromarray(io.to_uint8(albedo)), name=texture.stem
+    )
     textured = trimesh.Trimesh(
         positions[low.vmap],
         low.uv_faces,
         process=False,
-        visual=trimesh.visual.TextureVisuals(
-            uv=low.uvs, image=Image.fromarray(io.to_uint8(albedo))
-        ),
+        visual=trimesh.visual.TextureVisuals(uv=low.uvs, material=material),
     )
-    with io.atomic_path(path) as tmp:
-        textured.export(tmp, include_texture=True, mtl_name=f"{name}.mtl")
+    text, files = trimesh.exchange.obj.export_obj(
+        textured, include_texture=True, mtl_name=mtl.name, return_texture=True
+    )
+    expected = {mtl.name, texture.name}
+    if set(files) != expected:
+        raise RuntimeError(f"trimesh wrote {sorted(files)}, expected {sorted(expected)}")
+    for path, data in ((paths["obj"], text.encode()), (mtl, files[mtl.name])):
+        with io.atomic_path(path) as tmp:
+            tmp.write_bytes(data)
+    with io.atomic_path(texture) as tmp:
+        tmp.write_bytes(files[texture.name])

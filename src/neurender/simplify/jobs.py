@@ -108,7 +108,8 @@ def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -
     formats.write_texture(outputs["albedo"], albedo_map)
     loss.insert(0, "case", case)
     io.write_csv(outputs["loss"], loss)
-    formats.write_obj(outputs["obj"], low, positions, albedo_map, case)
+    obj_files = {k: outputs[k] for k in ("obj", "mtl", "texture")}
+    formats.write_obj(obj_files, low, positions, albedo_map)
 
 
 def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
