@@ -9,6 +9,10 @@ configfile: "config/config.yaml"
 
 
 include: "workflow/rules/common.smk"
+include: "workflow/rules/helpers/prt.smk"
+include: "workflow/rules/helpers/ndr.smk"
+include: "workflow/rules/helpers/metaballs.smk"
+include: "workflow/rules/helpers/simplification.smk"
 include: "workflow/rules/prt.smk"
 include: "workflow/rules/ndr.smk"
 include: "workflow/rules/metaballs.smk"

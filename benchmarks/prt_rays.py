@@ -6,7 +6,7 @@ python benchmarks/prt_rays.py results/prt/head/sequence.npz results/prt/probes/s
 import argparse
 
 from neurender.prt.benchmark import run_benchmark
-from neurender.prt.data import read_sh_light
+from neurender.prt.frames import read_sh_light
 
 parser = argparse.ArgumentParser(description=__doc__)
 parser.add_argument("sequence")

@@ -1,17 +1,18 @@
-import pandas as pd
 import pytest
 import torch
 
-from neurender.ndr import evaluate
+from neurender.display import reinhard
 from neurender.ndr.model import (
-    VARIANTS,
     NDRModel,
+    architecture,
     inverse_reinhard,
     loss_terms,
-    reinhard,
     shading_input,
 )
+from neurender.ndr.variants import VARIANTS
 from neurender.nn.ndr import NDRNet
+
+SMALL = {"widths": [4, 8], "sh_hidden": 8, "ngf": 4, "width": 32, "shading_residual": True}
 
 
 def _batch(n: int = 2, width: int = 32) -> dict[str, torch.Tensor]:
@@ -42,7 +43,7 @@ def test_reinhard_round_trip():
 
 @pytest.mark.parametrize("name", sorted(VARIANTS))
 def test_every_variant_renders_hdr_maps(name):
-    model = NDRModel(VARIANTS[name], [4, 8], 8, 4, 32)
+    model = NDRModel(VARIANTS[name], **architecture(VARIANTS[name], SMALL))
     out = model(_batch())
     assert out["I_R"].shape == (2, 3, 32, 32)
     assert torch.isfinite(out["I_R"]).all() and (out["I_R"] >= 0).all()
@@ -50,7 +51,7 @@ def test_every_variant_renders_hdr_maps(name):
 
 def _zero_head_ndr() -> NDRModel:
     """The residual NDR with all-zero decoder heads: it adds nothing to the coarse shading."""
-    model = NDRModel(VARIANTS["ndr"], [4, 8], 8, 4, 32).eval()
+    model = NDRModel(VARIANTS["ndr"], **architecture(VARIANTS["ndr"], SMALL)).eval()
     for decoder in model.net.decoders:
         torch.nn.init.zeros_(decoder.head.weight)
         torch.nn.init.zeros_(decoder.head.bias)
@@ -75,13 +76,46 @@ def test_loss_is_zero_for_a_perfect_prediction():
 
 
 def test_decoders_share_the_encoder_and_split_the_output():
-    net = NDRNet(11, 3, [4, 8, 16], decoders=2)
+    """One encoder feeds both decoders: a change of an encoder weight moves both halves of
+    the output, a change of decoder 0's head only the first half."""
+    torch.manual_seed(0)
+    net = NDRNet(11, 3, [4, 8, 16], decoders=2).eval()
     x, light = torch.randn(1, 11, 16, 16), torch.randn(1, 75)
-    assert net(x, light).shape == (1, 6, 16, 16)
+    before = net(x, light)
+    assert before.shape == (1, 6, 16, 16)
+    assert len(net.encoders) == 3  # one encoder path, not one per decoder
+    with torch.no_grad():
+        net.encoders[0][0][0].weight.add_(0.5)
+    after = net(x, light)
+    for half in (slice(0, 3), slice(3, 6)):
+        assert not torch.allclose(after[:, half], before[:, half])
+    with torch.no_grad():
+        net.decoders[0].head.bias.add_(1.0)
+    changed = net(x, light)
+    assert not torch.allclose(changed[:, :3], after[:, :3])
+    torch.testing.assert_close(changed[:, 3:], after[:, 3:])
+
+
+def test_both_decoders_train_the_shared_encoder():
+    """Each decoder's output alone sends gradient into the same first encoder weights."""
+    net = NDRNet(11, 3, [4, 8], decoders=2)
+    x, light = torch.randn(2, 11, 8, 8), torch.randn(2, 75)
+    first = net.encoders[0][0][0].weight
+    grads = []
+    for half in (slice(0, 3), slice(3, 6)):
+        net.zero_grad()
+        net(x, light)[:, half].square().sum().backward()
+        grads.append(first.grad.clone())
+        assert first.grad.abs().sum() > 0
+    assert not torch.allclose(grads[0], grads[1])
+
+
+def test_light_and_input_size_are_checked():
+    net = NDRNet(11, 3, [4, 8, 16], decoders=2)
     with pytest.raises(ValueError, match="pass the light vector"):
-        net(x)
+        net(torch.randn(1, 11, 16, 16))
     with pytest.raises(ValueError, match="divisible by 4"):
-        net(torch.randn(1, 11, 18, 18), light)
+        net(torch.randn(1, 11, 18, 18), torch.randn(1, 75))
 
 
 def test_light_input_changes_the_output():
@@ -90,45 +124,22 @@ def test_light_input_changes_the_output():
     assert not torch.allclose(net(x, torch.zeros(1, 75)), net(x, torch.ones(1, 75)))
 
 
-def test_targets_state_met_and_missed(tmp_path):
-    rows = [
-        ("complex", "ndr", 0.05),
-        ("complex", "shading_input", 0.06),
-        ("complex", "no_intrinsic", 0.08),
-        ("complex", "pix2pix", 0.03),
-        ("complex", "noise floor", 0.01),
-    ]
-    pd.DataFrame(
-        [
-            {
-                "method": "ndr",
-                "dataset": d,
-                "model": m,
-                "split": "test",
-                "metric": "dssim_I_R",
-                "value": v,
-            }
-            for d, m, v in rows
-        ]
-    ).to_csv(tmp_path / "m.csv", index=False)
-    (tmp_path / "b.tsv").write_text("s\th:m:s\n600.0\t0:10:00\n")
-    # Two jobs of 600 s, on 2 threads and on 1: 15 min of wall time on 2 cores.
-    evaluate.target_rows(
-        str(tmp_path / "m.csv"), [str(tmp_path / "b.tsv")] * 2, [2, 1], 2, str(tmp_path / "t.csv")
-    )
-    t = pd.read_csv(tmp_path / "t.csv").set_index("check")["met"]
-    assert not t[t.index.str.startswith("NDR DSSIM(I_R) >= 25%")].iloc[0]  # 0.05 > 0.75 * 0.06
-    assert t["NDR DSSIM(I_R) below no_intrinsic (0.0800)"]
-    assert not t["NDR DSSIM(I_R) below pix2pix (0.0300)"]
-    assert t["no-intrinsic ablation clearly worse (DSSIM >= 1.2 x NDR)"]
-    assert t[t.index.str.startswith("whole NDR stage")].iloc[0]  # 15 min
-
-
 @pytest.mark.parametrize("name", ["no_shading", "real_shading"])
 def test_variants_without_the_shading_input_ignore_it(name):
     """No residual prior may leak the coarse shading into the shading-input ablation."""
-    model = NDRModel(VARIANTS[name], [4, 8], 8, 4, 32).eval()
+    model = NDRModel(VARIANTS[name], **architecture(VARIANTS[name], SMALL)).eval()
     assert not model.residual
     batch = _batch()
     other = {**batch, "S_D": batch["S_D"] * 3, "S_S": batch["S_S"] * 0.1}
     torch.testing.assert_close(model(batch)["I_D"], model(other)["I_D"])
+
+
+@pytest.mark.parametrize("name", sorted(VARIANTS))
+def test_a_variant_is_built_only_from_the_keys_it_uses(name):
+    """The training job gets only these keys: the network must not need any other."""
+    variant = VARIANTS[name]
+    arch = architecture(variant, SMALL)
+    assert ("shading_residual" in arch) == variant.uses_prior
+    assert ("widths" in arch) == (variant.arch == "ndr")
+    model = NDRModel(variant, **arch)
+    assert model.residual == variant.uses_prior

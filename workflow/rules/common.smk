@@ -11,9 +11,9 @@ neurender.config.check(config)
 
 
 def section_keys(section, keys, top=(), **extra):
-    """The config keys a rule reads, as its ``params: cfg=``: ``keys`` of ``config[section]``,
-    ``top``-level keys (``seed``, ``device``) and ``extra`` values (wildcards), so that an
-    edit of any other key never reruns the rule."""
+    """The config keys one job reads, for its ``params`` (``cfg``): ``keys`` of
+    ``config[section]``, ``top``-level keys (``seed``, ``device``) and ``extra`` values
+    (wildcards); an edit of any other key then never reruns the job."""
     cfg = {k: config[k] for k in top}
     cfg.update({k: config[section][k] for k in keys})
     cfg.update(extra)

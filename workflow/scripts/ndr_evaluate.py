@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.ndr.evaluate import run_evaluation
+from neurender.jobs import run
+from neurender.ndr import jobs
 
-log_to_file(snakemake.log[0])
-run_evaluation(
-    dict(snakemake.input.items()),
-    snakemake.params.variants,
-    snakemake.params.cfg,
-    snakemake.threads,
-    dict(snakemake.output.items()),
-)
+run(snakemake, jobs.ndr_evaluate)

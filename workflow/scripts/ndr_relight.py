@@ -1,17 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.mitsuba_setup import require_mitsuba
-from neurender.ndr.relight import relight
+from neurender.jobs import run
+from neurender.ndr import jobs
 
-log_to_file(snakemake.log[0])
-cfg = snakemake.params.cfg
-mi, _ = require_mitsuba(cfg["device"])
-relight(
-    mi,
-    cfg,
-    snakemake.input.checkpoint,
-    cfg["relight_sample"],
-    cfg["relight_turns"],
-    snakemake.threads,
-    snakemake.output.csv,
-    snakemake.output.figure,
-)
+run(snakemake, jobs.ndr_relight)

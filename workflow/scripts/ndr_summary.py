@@ -1,13 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.ndr.summary import summarise
+from neurender.jobs import run
+from neurender.ndr import jobs
 
-log_to_file(snakemake.log[0])
-out = snakemake.output
-summarise(
-    dict(zip(snakemake.params.splits, snakemake.input.manifests, strict=True)),
-    snakemake.input.example,
-    snakemake.params.cfg,
-    out.csv,
-    out.furnace,
-    out.figure,
-)
+run(snakemake, jobs.ndr_summary)

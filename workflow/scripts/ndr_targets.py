@@ -1,11 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.ndr.evaluate import target_rows
+from neurender.jobs import run
+from neurender.ndr import jobs
 
-log_to_file(snakemake.log[0])
-target_rows(
-    snakemake.input.metrics,
-    list(snakemake.input.benchmarks),
-    snakemake.params.job_threads,
-    snakemake.params.cores,
-    snakemake.output.targets,
-)
+run(snakemake, jobs.ndr_targets)

@@ -1,12 +1,4 @@
-from neurender.logs import log_to_file
-from neurender.ndr.model import train_variant
+from neurender.jobs import run
+from neurender.ndr import jobs
 
-log_to_file(snakemake.log[0])
-train_variant(
-    snakemake.wildcards.variant,
-    dict(snakemake.input.items()),
-    snakemake.params.cfg,
-    snakemake.threads,
-    snakemake.output.checkpoint,
-    snakemake.output.loss,
-)
+run(snakemake, jobs.ndr_train)

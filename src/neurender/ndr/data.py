@@ -1,19 +1,13 @@
-"""NDR dataset generation (paper 3.2) and loading.
+"""NDR dataset generation (paper 3.2): the samples of one split.
 
 One sample = one random object under one environment map, seen by the fixed camera of
-:mod:`neurender.ndr.render`, stored as a float32 OpenEXR with named channels (rows top
-first, linear values, view-space vectors):
+:mod:`neurender.ndr.render`, stored in the format of :mod:`neurender.ndr.buffers`. Two
+kinds of split: ``complex`` (SVBRDFs, a new random or user map per sample: the paper's
+"complex material, varying illumination") and ``diffuse`` (specular albedo 0, one fixed
+built-in map rotated never: the Real Shading setting).
 
-``N.X N.Y N.Z`` normals, ``R`` roughness, ``D`` depth, ``A_D.{R,G,B}`` and
-``A_S.{R,G,B}`` albedos, ``S_D.*`` and ``S_S.*`` coarse shading, ``I_D.*`` and ``I_S.*``
-ray-traced shading maps, ``mask`` (pixel centre on the object). Test samples add
-``I_D_noisy.*`` and ``I_S_noisy.*``: an independent render at the *training* sample count,
-for the noise floor (the test's ``I_D``/``I_S`` use ``reference_spp``).
-
-A split's lighting is a tidy CSV ``sample, coefficient, channel, value`` of the 5-band SH
-(25 x RGB) of each sample's map. Two kinds of split: ``complex`` (SVBRDFs, a new random or
-user map per sample: paper's "complex material, varying illumination") and ``diffuse``
-(specular albedo 0, one fixed built-in map rotated never: the Real Shading setting).
+Every sample is determined by ``(seed, split, index)`` alone (:func:`neurender.rng.
+stable_seed`), so samples render in any order, in any process.
 """
 
 from __future__ import annotations
@@ -22,55 +16,22 @@ import logging
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import torch
-from tqdm import tqdm
 
 from neurender import io, lights
-from neurender.mitsuba_setup import INSTALL_HINT
-from neurender.ndr import environments, objects, render
+from neurender.ndr import environments, objects, pool, render, split_kind
+from neurender.ndr.buffers import channels, lighting_rows
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import stable_seed, torch_generator
 
 log = logging.getLogger(__name__)
 
-RGB = ("R", "G", "B")
-XYZ = ("X", "Y", "Z")
-BUFFERS = {  # EXR channel groups and their channel suffixes
-    "N": XYZ,
-    "R": (),
-    "D": (),
-    "A_D": RGB,
-    "A_S": RGB,
-    "S_D": RGB,
-    "S_S": RGB,
-    "I_D": RGB,
-    "I_S": RGB,
-    "mask": (),
-}
-NOISY = {"I_D_noisy": RGB, "I_S_noisy": RGB}
-
-
-def split_kind(split: str) -> tuple[str, str]:
-    """``"diffuse_test"`` -> ``("diffuse", "test")``; ``"train"`` -> ``("complex", "train")``."""
-    kind, _, part = split.rpartition("_")
-    if part not in ("train", "val", "test") or kind not in ("", "diffuse"):
-        raise ValueError(f"NDR split {split!r}: expected [diffuse_]train|val|test")
-    return kind or "complex", part
-
-
-def channels(group: str, image: np.ndarray) -> dict[str, np.ndarray]:
-    """EXR channels of one buffer group: ``(H, W)`` or ``(H, W, C)`` -> name -> ``(H, W)``."""
-    suffixes = BUFFERS.get(group) or NOISY.get(group, ())
-    if not suffixes:
-        return {group: image}
-    return {f"{group}.{s}": image[..., i] for i, s in enumerate(suffixes)}
+#: Offset of the noisy test render's seed from the reference's (independent noise).
+NOISY_SEED_OFFSET = 7919
 
 
 def _user_probes(cfg: dict, part: str) -> list[Path]:
@@ -86,43 +47,27 @@ def _user_probes(cfg: dict, part: str) -> list[Path]:
     return [p for i, p in enumerate(found) if (i in held_out) == (part == "test")]
 
 
-def make_sample(
-    cfg: dict, split: str, index: int, mi, env_shift: int = 0
-) -> tuple[dict, np.ndarray, dict]:
-    """Render one sample: ``(EXR channels, SH features (75,), manifest row)``.
-
-    ``env_shift`` turns the sample's map about +y by that many columns (relighting the same
-    object for the paper's Fig. 3 (d)); 0 is the sample as stored.
-    """
-    kind, part = split_kind(split)
-    rng = np.random.default_rng(stable_seed(cfg["seed"], "ndr", split, index))
-    start = time.perf_counter()
-    obj = objects.random_object(
-        rng, tuple(cfg["primitives"]), cfg["edge_length"], diffuse_only=kind == "diffuse"
-    )
+def _environment(
+    cfg: dict, kind: str, part: str, rng: np.random.Generator
+) -> tuple[np.ndarray, str]:
+    """A sample's map ``(H, 2H, 3)`` and its name: the fixed probe for ``diffuse`` data,
+    else a procedural or user map (:func:`environments.environment_for_sample`)."""
     if kind == "diffuse":
         env = lights.procedural_probe(cfg["fixed_probe"], cfg["environment_height"])
-        env_name = cfg["fixed_probe"]
-    else:
-        env, env_name = environments.environment_for_sample(
-            rng,
-            cfg["environment_height"],
-            _user_probes(cfg, part),
-            cfg["user_probe_fraction"],
-        )
-    env = environments.rotate_about_up(env, env_shift)
-    view = render.camera(cfg["camera_distance"], cfg["fov"])
-    width = cfg["width"]
-    g = render.g_buffers(obj, view, width)
-    spp = cfg["reference_spp"] if part == "test" else cfg["spp"]
-    render_seed = int(rng.integers(2**30))
-    tic = time.perf_counter()
-    maps = render.shading_maps(mi, obj, env, view, width, spp, render_seed, kind == "complex")
-    render_seconds = time.perf_counter() - tic
+        return env, cfg["fixed_probe"]
+    return environments.environment_for_sample(
+        rng, cfg["environment_height"], _user_probes(cfg, part), cfg["user_probe_fraction"]
+    )
 
+
+def _coarse_maps(
+    cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, split: str, index: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
+    (0 off the object), from the map downsampled to ``coarse_height`` rows."""
+    width = cfg["width"]
     m = g["mask"].reshape(-1) > 0
     small = torch.from_numpy(environments.resize_latlong(env, cfg["coarse_height"]))
-    tic = time.perf_counter()
     s_d = np.zeros((width * width, 3), np.float32)
     s_s = np.zeros((width * width, 3), np.float32)
     sd, ss = coarse_shading(
@@ -134,7 +79,13 @@ def make_sample(
         torch_generator(cfg["seed"], "ndr-coarse", split, index),
     )
     s_d[m], s_s[m] = sd.numpy(), ss.numpy()
-    coarse_seconds = time.perf_counter() - tic
+    return s_d.reshape(width, width, 3), s_s.reshape(width, width, 3)
+
+
+def _sample_channels(
+    g: dict[str, np.ndarray], s_d: np.ndarray, s_s: np.ndarray, maps: dict[str, np.ndarray]
+) -> dict[str, np.ndarray]:
+    """A sample's EXR channels from its G-buffers, coarse shading and ground truth."""
     out = {}
     for group, image in (
         ("N", g["normal"]),
@@ -142,18 +93,52 @@ def make_sample(
         ("D", g["depth"]),
         ("A_D", g["albedo_diffuse"]),
         ("A_S", g["albedo_specular"]),
-        ("S_D", s_d.reshape(width, width, 3)),
-        ("S_S", s_s.reshape(width, width, 3)),
+        ("S_D", s_d),
+        ("S_S", s_s),
         ("I_D", maps["I_D"]),
         ("I_S", maps["I_S"]),
         ("mask", g["mask"]),
     ):
         out.update(channels(group, image))
+    return out
+
+
+def make_sample(
+    cfg: dict, split: str, index: int, mi, env_shift: int = 0
+) -> tuple[dict, np.ndarray, dict]:
+    """Render one sample: ``(EXR channels, SH features (75,), manifest row)``.
+
+    ``env_shift`` turns the sample's map about +y by that many columns (relighting the same
+    object for the paper's Fig. 3 (d)); 0 is the sample as stored. The manifest row holds
+    the sample's statistics and its timings in seconds on one core.
+    """
+    kind, part = split_kind(split)
+    rng = np.random.default_rng(stable_seed(cfg["seed"], "ndr", split, index))
+    start = time.perf_counter()
+    obj = objects.random_object(
+        rng, tuple(cfg["primitives"]), cfg["edge_length"], diffuse_only=kind == "diffuse"
+    )
+    env, env_name = _environment(cfg, kind, part, rng)
+    env = environments.rotate_about_up(env, env_shift)
+    view = render.camera(cfg["camera_distance"], cfg["fov"])
+    width = cfg["width"]
+    g = render.g_buffers(obj, view, width)
+    spp = cfg["reference_spp"] if part == "test" else cfg["spp"]
+    render_seed = int(rng.integers(2**30))
+    specular = kind == "complex"
+    tic = time.perf_counter()
+    maps = render.shading_maps(mi, obj, env, view, width, spp, render_seed, specular)
+    render_seconds = time.perf_counter() - tic
+
+    tic = time.perf_counter()
+    s_d, s_s = _coarse_maps(cfg, g, env, split, index)
+    coarse_seconds = time.perf_counter() - tic
+    out = _sample_channels(g, s_d, s_s, maps)
     noisy_seconds = math.nan
     if part == "test":
         tic = time.perf_counter()
         noisy = render.shading_maps(
-            mi, obj, env, view, width, cfg["spp"], render_seed + 7919, kind == "complex"
+            mi, obj, env, view, width, cfg["spp"], render_seed + NOISY_SEED_OFFSET, specular
         )
         noisy_seconds = time.perf_counter() - tic
         out.update(channels("I_D_noisy", noisy["I_D"]))
@@ -174,21 +159,9 @@ def make_sample(
     return out, environments.sh_features(env), row
 
 
-_WORKER: dict = {}
-
-
-def _init_worker(device: str, threads: int) -> None:
-    from neurender.mitsuba_setup import require_mitsuba
-
-    mi, dr = require_mitsuba(device)
-    dr.set_thread_count(threads)
-    _WORKER["mi"] = mi
-    torch.set_num_threads(threads)
-
-
-def _work(args: tuple[dict, str, int, str]) -> tuple[np.ndarray, dict]:
-    cfg, split, index, folder = args
-    out, light, row = make_sample(cfg, split, index, _WORKER["mi"])
+def write_sample(mi, cfg: dict, split: str, index: int, folder: str) -> tuple[np.ndarray, dict]:
+    """Render sample ``index`` of ``split`` into ``folder``; its SH vector and manifest row."""
+    out, light, row = make_sample(cfg, split, index, mi)
     io.write_exr(Path(folder) / row["file"], out)
     return light, row
 
@@ -202,46 +175,17 @@ def generate_split(
     With ``workers > 1`` samples render in that many forked single-threaded processes (at
     64 px one process per core is faster than Dr.Jit's threads); a process that already
     loaded Dr.Jit renders in-process instead, because its thread pool does not survive a
-    fork (and spawn would re-run a Snakemake script's top level).
+    fork (and spawn would re-run a Snakemake script's top level). A sample that fails ends
+    the job with its error and traceback (see :mod:`neurender.ndr.pool`).
     """
     Path(folder).mkdir(parents=True, exist_ok=True)
-    jobs = [(cfg, split, i, folder) for i in range(count)]
     if workers > 1 and "drjit" in sys.modules:
         log.warning("Dr.Jit already loaded in this process: rendering %s in-process", split)
         workers = 1
-    if workers > 1:
-        pool = ProcessPoolExecutor(
-            workers,
-            mp_context=get_context("fork"),
-            initializer=_init_worker,
-            initargs=(cfg["device"], 1),
-        )
-        results = pool.map(_work, jobs, chunksize=4)
-    else:
-        pool = None
-        _init_worker(cfg["device"], 1)
-        results = map(_work, jobs)
-    rows, sh_rows = [], []
-    try:
-        for light, row in tqdm(results, total=count, desc=f"ndr {split}", mininterval=5):
-            rows.append(row)
-            sh_rows += [
-                {
-                    "sample": row["sample"],
-                    "coefficient": k // 3,
-                    "channel": RGB[k % 3],
-                    "value": float(value),
-                }
-                for k, value in enumerate(light)
-            ]
-    except BrokenProcessPool as err:  # a worker died, e.g. Mitsuba or LLVM missing
-        raise SystemExit(
-            f"error: a rendering process for NDR split {split!r} failed ({err}); check that "
-            f"Mitsuba runs here: {INSTALL_HINT}"
-        ) from None
-    finally:
-        if pool is not None:
-            pool.shutdown(cancel_futures=True)
+    tasks = [(cfg, split, i, folder) for i in range(count)]
+    results = pool.render_all(write_sample, tasks, cfg["device"], workers, f"ndr {split}")
+    rows = [row for _, row in results]
+    sh_rows = [r for light, row in results for r in lighting_rows(row["sample"], light)]
     io.write_csv(lighting, pd.DataFrame(sh_rows))
     io.write_csv(manifest, pd.DataFrame(rows))
     log.info(

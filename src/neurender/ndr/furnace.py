@@ -3,13 +3,13 @@
 A convex white object under a constant unit environment reflects exactly 1 diffusely
 (``I_D = 1`` everywhere: no occlusion on a convex shape, the cosine integral over pi is 1),
 and its specular map is the GGX directional albedo, which Mitsuba's ``roughconductor`` and
-our coarse-shading estimator compute independently.
+our coarse-shading estimator compute independently. Each check is a
+:class:`neurender.tables.Target` (subject ``Mitsuba I_D``, ``coarse S_D`` ...).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import torch
 import trimesh
 
@@ -17,6 +17,17 @@ from neurender.ndr import render
 from neurender.ndr.objects import ProceduralObject
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import torch_generator
+from neurender.tables import Target
+
+#: The furnace's camera (the NDR default) and its unit environment map.
+FURNACE_DISTANCE, FURNACE_FOV = 3.9, 30.0
+FURNACE_ENVIRONMENT = (32, 64)
+#: Uniform roughness of the sphere: a mid-width GGX lobe.
+FURNACE_ROUGHNESS = 0.5
+#: Tolerances: Mitsuba's mean ``I_D`` (its Monte Carlo error over the sphere), the coarse
+#: ``S_D`` (exact up to float error: a constant map) and the relative difference of the two
+#: GGX albedo estimates.
+I_D_TOLERANCE, S_D_TOLERANCE, GGX_TOLERANCE = 0.01, 1e-6, 0.02
 
 
 def white_sphere(roughness: float) -> ProceduralObject:
@@ -29,11 +40,19 @@ def white_sphere(roughness: float) -> ProceduralObject:
     )
 
 
-def furnace(mi, width: int, spp: int, roughness: float, samples: int, seed: int) -> pd.DataFrame:
-    """Rows ``check, measured, expected, tolerance, passed`` over the sphere's interior pixels."""
-    obj = white_sphere(roughness)
-    view = render.camera(3.9, 30.0)
-    env = np.ones((32, 64, 3), np.float32)
+def _within(
+    subject: str, what: str, measured: float, expected: float, tol: float, why: str = ""
+) -> Target:
+    check = f"{what} within {why}{tol:.3g} of {expected:g}"
+    return Target(subject, check, measured, abs(measured - expected) <= tol)
+
+
+def furnace(mi, width: int, spp: int, samples: int, seed: int) -> list[Target]:
+    """The checks over the sphere's interior pixels (``width`` px, Mitsuba at ``spp``,
+    coarse shading with ``samples`` per pixel and lobe), each met or missed."""
+    obj = white_sphere(FURNACE_ROUGHNESS)
+    view = render.camera(FURNACE_DISTANCE, FURNACE_FOV)
+    env = np.ones((*FURNACE_ENVIRONMENT, 3), np.float32)
     maps = render.shading_maps(mi, obj, env, view, width, spp, seed)
     g = render.g_buffers(obj, view, width)
     inside = (g["mask"] > 0) & (maps["coverage"] > 0.999)
@@ -41,28 +60,36 @@ def furnace(mi, width: int, spp: int, roughness: float, samples: int, seed: int)
     s_d, s_s = coarse_shading(
         n,
         torch.from_numpy(g["view_dir"][inside]),
-        torch.full((len(n),), roughness**2),
+        torch.full((len(n),), FURNACE_ROUGHNESS**2),
         torch.from_numpy(env[::2, ::2]),
         samples,
         torch_generator(seed, "furnace"),
     )
     i_d, i_s = maps["I_D"][inside], maps["I_S"][inside]
     rel = abs(float(s_s.mean()) - float(i_s.mean())) / float(i_s.mean())
-    rows = [
-        (
-            "Mitsuba I_D mean (convex white Lambertian, unit environment)",
+    return [
+        _within(
+            "Mitsuba I_D",
+            "mean (convex white Lambertian, unit environment)",
             float(i_d.mean()),
             1.0,
-            0.01,
+            I_D_TOLERANCE,
         ),
         # Per-pixel Monte Carlo noise shrinks as 1 / sqrt(spp).
-        ("Mitsuba mean |I_D - 1| per pixel", float(np.abs(i_d - 1).mean()), 0.0, spp**-0.5),
-        ("coarse S_D mean", float(s_d.mean()), 1.0, 1e-6),
-        ("coarse S_S vs Mitsuba I_S, relative difference of means (GGX albedo)", rel, 0.0, 0.02),
+        _within(
+            "Mitsuba I_D",
+            "mean |I_D - 1| per pixel",
+            float(np.abs(i_d - 1).mean()),
+            0.0,
+            spp**-0.5,
+            why="1 / sqrt(spp) = ",
+        ),
+        _within("coarse S_D", "mean", float(s_d.mean()), 1.0, S_D_TOLERANCE),
+        _within(
+            "coarse S_S",
+            "relative difference of its mean from Mitsuba's I_S (GGX albedo)",
+            rel,
+            0.0,
+            GGX_TOLERANCE,
+        ),
     ]
-    return pd.DataFrame(
-        [
-            {"check": c, "measured": m, "expected": e, "tolerance": t, "passed": abs(m - e) <= t}
-            for c, m, e, t in rows
-        ]
-    )

@@ -24,9 +24,10 @@ from types import ModuleType
 
 import numpy as np
 
-from neurender.camera import Camera, pixel_rays
+from neurender import mitsuba_setup
+from neurender.camera import Camera, pixel_rays, sensor
 from neurender.ndr.objects import ProceduralObject
-from neurender.raytrace import embree_scene
+from neurender.raytrace import embree_scene, first_hits
 
 
 def camera(distance: float, fov: float) -> Camera:
@@ -34,17 +35,10 @@ def camera(distance: float, fov: float) -> Camera:
     return Camera((0.0, 0.0, float(distance)), (0.0, 0.0, 0.0), fov)
 
 
-def _mesh(mi: ModuleType, obj: ProceduralObject, bsdf: dict):
-    props = mi.Properties()
-    props["bsdf"] = mi.load_dict(bsdf)
-    mesh = mi.Mesh(
-        "object", len(obj.vertices), len(obj.faces), has_vertex_normals=True, props=props
-    )
-    params = mi.traverse(mesh)
-    params["vertex_positions"] = np.ravel(obj.vertices).astype(np.float32)
-    params["faces"] = np.ravel(obj.faces).astype(np.uint32)
-    params["vertex_normals"] = np.ravel(obj.normals).astype(np.float32)
-    params.update()
+def object_mesh(mi: ModuleType, obj: ProceduralObject, bsdf: dict):
+    """The object as a Mitsuba mesh with its smooth vertex normals and the per-vertex GGX
+    width ``vertex_alpha = roughness^2`` that :data:`SPECULAR_BSDF` reads."""
+    mesh = mitsuba_setup.mesh(mi, obj.vertices, obj.faces, bsdf, normals=obj.normals, name="object")
     mesh.add_attribute("vertex_alpha", 1, np.ravel(obj.roughness.astype(np.float32) ** 2))
     return mesh
 
@@ -74,32 +68,17 @@ def shading_maps(
 ) -> dict[str, np.ndarray]:
     """Ray-traced ``I_D`` and ``I_S`` ``(W, W, 3)`` float32 linear radiance and the pixel
     coverage ``(W, W)``; ``I_S`` is zero (and not rendered) when ``specular`` is False."""
-    sensor = {
-        "type": "perspective",
-        "fov": view.fov,
-        "to_world": mi.ScalarTransform4f().look_at(
-            origin=view.origin, target=view.target, up=[0, 1, 0]
-        ),
-        "film": {
-            "type": "hdrfilm",
-            "width": width,
-            "height": width,
-            "rfilter": {"type": "box"},
-            "pixel_format": "rgba",
-        },
-        "sampler": {"type": "independent", "sample_count": spp},
-    }
     bsdf = {"type": "blendbsdf", "weight": 0.0, "diffuse": DIFFUSE_BSDF, "specular": SPECULAR_BSDF}
     scene = mi.load_dict(
         {
             "type": "scene",
             "integrator": {"type": "direct", "hide_emitters": True},
-            "sensor": sensor,
+            "sensor": sensor(mi, view, width, spp),
             "environment": {
                 "type": "envmap",
                 "bitmap": mi.Bitmap(np.ascontiguousarray(environment, np.float32)),
             },
-            "object": _mesh(mi, obj, bsdf),
+            "object": object_mesh(mi, obj, bsdf),
         }
     )
     image = np.array(mi.render(scene, seed=seed), dtype=np.float32)
@@ -123,25 +102,18 @@ def g_buffers(obj: ProceduralObject, view: Camera, width: int) -> dict[str, np.n
     ``albedo_diffuse`` and ``albedo_specular`` ``(W, W, 3)``, ``mask`` ``(W, W)`` in {0, 1}.
     """
     dirs = pixel_rays(view, width).reshape(-1, 3).astype(np.float32)
-    origins = np.broadcast_to(np.asarray(view.origin, np.float32), dirs.shape).copy()
-    hit = embree_scene(obj.vertices, obj.faces).run(origins, dirs, output=1)
-    prim = hit["primID"]
-    mask = prim >= 0
-    bary = np.stack([1 - hit["u"] - hit["v"], hit["u"], hit["v"]], -1)[mask]
-    corners = obj.faces[prim[mask]]
+    origins = np.broadcast_to(np.asarray(view.origin, np.float32), dirs.shape)
+    hits = first_hits(embree_scene(obj.vertices, obj.faces), obj.faces, origins, dirs)
 
     def interpolate(values: np.ndarray) -> np.ndarray:
-        values = values.reshape(len(values), -1)
-        img = np.zeros((width * width, values.shape[1]), np.float32)
-        img[mask] = np.einsum("pk,pkc->pc", bary, values[corners])
-        return img.reshape(width, width, -1)
+        return hits.interpolate(values).reshape(width, width, -1)
 
     normal = interpolate(obj.normals)
     normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
     forward = -np.asarray(view.origin, np.float64) / np.linalg.norm(view.origin)
-    z = (hit["tfar"] * (dirs @ forward)).reshape(width, width)
+    z = (hits.distance * (dirs @ forward)).reshape(width, width)
     distance = float(np.linalg.norm(view.origin))
-    m = mask.reshape(width, width)
+    m = hits.mask.reshape(width, width)
     return {
         "normal": normal,
         "view_dir": (-dirs).reshape(width, width, 3),

@@ -1,91 +1,144 @@
-"""What the NDR data stage made: per-split statistics, the furnace check, a buffer figure."""
+"""What the NDR stage made and what it cost: split statistics, timings and the targets.
+
+Tables are tidy (:mod:`neurender.tables`); times are wall-clock seconds unless named
+otherwise. Target thresholds come from ``report/targets.csv`` (method ``ndr``).
+"""
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
+import torch
 
 from neurender import io
-from neurender.mitsuba_setup import require_mitsuba
-from neurender.ndr.data import split_kind
-from neurender.ndr.furnace import furnace
-from neurender.plots import save_figure
+from neurender.ndr import split_kind
+from neurender.ndr.buffers import NDRDataset
+from neurender.ndr.evaluate import NOISE_FLOOR
+from neurender.ndr.model import SHADING_INPUT, NDRModel
+from neurender.ndr.variants import VARIANTS
+from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
+from neurender.timing import timed
 
-FURNACE_ROUGHNESS = 0.5
+#: Manifest columns the timing table reads (seconds on one core, see ``data.make_sample``).
+TIMING_COLUMNS = ["render_seconds", "train_spp_render_seconds", "coarse_seconds", "spp"]
 
 
 def split_statistics(manifests: dict[str, str]) -> pd.DataFrame:
-    """Tidy rows per split: sample count and means of the manifest's numeric columns."""
+    """Tidy rows per split (name -> manifest CSV): sample count and the means of the
+    manifest's numeric columns."""
     rows = []
     for split, path in manifests.items():
         frame = io.read_csv(path, ["sample", "primitives", "coverage", "spp", "seconds"])
         kind, part = split_kind(split)
         values = {"samples": len(frame), **frame.drop(columns="sample").mean(numeric_only=True)}
-        rows += [
-            {
-                "method": "ndr",
-                "dataset": kind,
-                "model": "data",
-                "split": part,
-                "metric": k,
-                "value": float(v),
-            }
-            for k, v in values.items()
-        ]
+        rows += tidy_rows("ndr", kind, "data", part, values)
     return pd.DataFrame(rows)
 
 
-def buffers_figure(folder: str, out: str, count: int = 3) -> None:
-    """Paper Fig. 1 dataflow for a few test samples: inputs, albedos, shading maps, I_R."""
-    files = sorted(Path(folder).glob("*.exr"))[:count]
-    names = ("N", "D", "R", "S_D", "S_S", "A_D", "A_S", "I_D", "I_S", "I_R")
-    fig, axes = plt.subplots(
-        len(files), len(names), figsize=(1.3 * len(names), 1.4 * len(files)), squeeze=False
+@torch.no_grad()
+def network_seconds(
+    model: NDRModel, data: NDRDataset, device: torch.device, repeats: int = 20
+) -> float:
+    """Median seconds of one forward pass at batch 1 (test sample 0) on ``device``, after
+    three uncounted calls that warm up allocators and kernels."""
+    batch = {key: v[None].to(device) for key, v in data[0].items()}
+    return timed(model, batch, repeats=repeats, warmup=3)[1]
+
+
+def timing_table(network: float, train_manifest: str, test_manifest: str, where: str):
+    """Seconds per image (medians): the network (``network`` s, measured ``where``) with
+    and without coarse shading, beside Mitsuba's ground truth at the training and the test
+    sample counts (both maps, one CPU core) as measured while making the data."""
+    made = io.read_csv(train_manifest, TIMING_COLUMNS)
+    tested = io.read_csv(test_manifest, TIMING_COLUMNS)
+    coarse = float(made.coarse_seconds.median())
+    values = {
+        "network_seconds": network,
+        "coarse_shading_seconds": coarse,
+        "network_with_coarse_shading_seconds": network + coarse,
+        f"ground_truth_seconds_{int(made.spp.iloc[0])}spp": float(made.render_seconds.median()),
+        f"ground_truth_seconds_{int(tested.spp.iloc[0])}spp": float(tested.render_seconds.median()),
+    }
+    values["speedup_vs_training_spp_render"] = (
+        float(made.render_seconds.median()) / values["network_with_coarse_shading_seconds"]
     )
-    for r, path in enumerate(files):
-        c = io.read_exr(path)
-
-        def rgb(group: str, suffix: str = "RGB", c: dict = c) -> np.ndarray:
-            return np.stack([c[f"{group}.{s}"] for s in suffix], -1)
-
-        mask = c["mask"][..., None]
-        images = {
-            "N": (rgb("N", "XYZ") + 1) / 2 * mask,
-            "D": c["D"],
-            "R": c["R"],
-            "A_D": rgb("A_D"),
-            "A_S": rgb("A_S"),
-        }
-        for g in ("S_D", "S_S", "I_D", "I_S"):
-            images[g] = rgb(g)
-        images["I_R"] = images["I_S"] * images["A_S"] + images["I_D"] * images["A_D"]
-        for k in ("S_D", "S_S", "I_D", "I_S", "I_R"):  # HDR: Reinhard, gamma 2.2
-            images[k] = (images[k] / (1 + images[k])) ** (1 / 2.2)
-        for col, name in enumerate(names):
-            ax = axes[r, col]
-            img = np.clip(images[name], 0, 1)
-            ax.imshow(img, cmap="gray" if img.ndim == 2 else None, vmin=0, vmax=1)
-            ax.set_title(name if r == 0 else "", fontsize=8)
-            ax.axis("off")
-    fig.tight_layout()
-    save_figure(fig, out)
+    return pd.DataFrame(tidy_rows("ndr", "complex", "ndr", f"timing ({where})", values))
 
 
-def summarise(
-    manifests: dict[str, str],
-    example_folder: str,
-    cfg: dict,
-    out_csv: str,
-    out_furnace: str,
-    out_figure: str,
-) -> None:
-    io.write_csv(out_csv, split_statistics(manifests))
-    mi, _ = require_mitsuba(cfg["device"])
-    checks = furnace(
-        mi, cfg["width"], cfg["furnace_spp"], FURNACE_ROUGHNESS, cfg["coarse_samples"], cfg["seed"]
+def stage_minutes(benchmarks: list[str], job_threads: list[int], cores: int) -> float:
+    """The stage's wall time on ``cores`` cores with ideal packing: the sum over jobs of
+    benchmark seconds (Snakemake's ``s`` column) x the job's threads, divided by ``cores``."""
+    core_seconds = sum(
+        float(pd.read_csv(f, sep="\t")["s"].iloc[0]) * threads
+        for f, threads in zip(benchmarks, job_threads, strict=True)
     )
-    io.write_csv(out_furnace, checks)
-    buffers_figure(example_folder, out_figure)
+    return core_seconds / cores / 60
+
+
+def _beats(ndr: float, name: str, other: float) -> Target:
+    return Target(
+        name, f"NDR's DSSIM(I_R) below {name}'s ({other:.4f}) (measured: NDR's)", ndr, ndr < other
+    )
+
+
+def targets(metrics: pd.DataFrame, minutes: float, cores: int) -> pd.DataFrame:
+    """The default config's targets on the complex test data (NDR against the shading
+    input, every ablation and baseline that ran, and the noise floor), NDR against Real
+    Shading on the diffuse data, and the stage time, each stated as met or missed."""
+
+    def dssim(model: str, dataset: str = "complex") -> float:
+        return lookup(metrics, model=model, metric="dssim_I_R", dataset=dataset)
+
+    ndr, base = dssim("ndr"), dssim(SHADING_INPUT)
+    gain, ratio = threshold("ndr", "shading_input_gain"), threshold("ndr", "no_intrinsic_ratio")
+    rows = [
+        Target(
+            "ndr",
+            f"DSSIM(I_R) at least {gain:.0%} below the shading input's ({base:.4f}) "
+            "(measured: fraction below)",
+            1 - ndr / base,
+            ndr <= (1 - gain) * base,
+        )
+    ]
+    others = [n for n, v in VARIANTS.items() if v.data == "complex" and n != "ndr"]
+    scores = {n: dssim(n) for n in others}
+    rows += [_beats(ndr, n, other) for n, other in scores.items() if other == other]
+    intrinsic = dssim("no_intrinsic")
+    if intrinsic == intrinsic:
+        rows.append(
+            Target(
+                "no_intrinsic",
+                f"clearly worse than NDR: DSSIM(I_R) at least {ratio:g} x NDR's (measured: ratio)",
+                intrinsic / ndr,
+                intrinsic >= ratio * ndr,
+            )
+        )
+    floor = dssim(NOISE_FLOOR)
+    rows.append(
+        Target(
+            NOISE_FLOOR,
+            f"reference noise floor ({floor:.4f}) below NDR's DSSIM(I_R) (measured: floor / NDR's)",
+            floor / ndr,
+            floor < ndr,
+        )
+    )
+    diffuse_ndr, real = dssim("ndr_diffuse", "diffuse"), dssim("real_shading", "diffuse")
+    if diffuse_ndr == diffuse_ndr and real == real:
+        rows.append(
+            Target(
+                "real_shading",
+                f"diffuse/fixed: NDR's DSSIM(I_R) below Real Shading's ({real:.4f}) "
+                "(measured: NDR's)",
+                diffuse_ndr,
+                diffuse_ndr < real,
+            )
+        )
+    budget = threshold("ndr", "stage_minutes")
+    rows.append(
+        Target(
+            "stage",
+            f"whole NDR stage within {budget:g} minutes on {cores} cores (measured: minutes)",
+            minutes,
+            minutes <= budget,
+        )
+    )
+    return target_table("ndr", rows)

@@ -1,0 +1,124 @@
+"""The NDR stage's jobs, one per rule of ``workflow/rules/ndr.smk``.
+
+Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
+``(inputs, outputs, params, threads)``. A split's files are ``<split>_dir``,
+``<split>_manifest`` and ``<split>_lighting`` (see :mod:`neurender.ndr.buffers`); the
+variants are those of :mod:`neurender.ndr.variants`.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from neurender import io, train
+from neurender.mitsuba_setup import require_mitsuba
+from neurender.ndr import KINDS, data, figures, furnace, relight, split_name, summary
+from neurender.ndr.buffers import NDRDataset
+from neurender.ndr.evaluate import score_split
+from neurender.ndr.model import SHADING_INPUT, load_model
+from neurender.ndr.training import train_variant
+from neurender.tables import target_table
+
+SPLIT_FILES = ("dir", "manifest", "lighting")
+
+
+def _split_files(inputs: dict, split: str) -> dict[str, str]:
+    return {key: inputs[f"{split}_{key}"] for key in SPLIT_FILES}
+
+
+def ndr_data(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Render split ``params["split"]`` (``count`` samples) with ``threads`` processes."""
+    data.generate_split(
+        params,
+        params["split"],
+        params["count"],
+        outputs["samples"],
+        outputs["manifest"],
+        outputs["lighting"],
+        threads,
+    )
+
+
+def ndr_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Per-split statistics (the ``manifests`` of ``params["splits"]``), the white-furnace
+    checks and the buffers figure of the ``example`` split."""
+    manifests = dict(zip(params["splits"], inputs["manifests"], strict=True))
+    io.write_csv(outputs["csv"], summary.split_statistics(manifests))
+    mi, _ = require_mitsuba(params["device"])
+    checks = furnace.furnace(
+        mi, params["width"], params["furnace_spp"], params["coarse_samples"], params["seed"]
+    )
+    io.write_csv(outputs["furnace"], target_table("ndr", checks))
+    figures.buffers_figure(inputs["example"], outputs["figure"])
+
+
+def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Train variant ``params["variant"]`` on the ``train`` and ``val`` split files."""
+    train_variant(
+        params["variant"],
+        _split_files(inputs, "train"),
+        _split_files(inputs, "val"),
+        params,
+        threads,
+        outputs["checkpoint"],
+        outputs["loss"],
+    )
+
+
+def ndr_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Score every variant (``checkpoint_<variant>``) on its test split; the per-sample
+    scores, NDR's timing table, the comparison figure and the training curves."""
+    device = train.resolve_device(params["device"], threads)
+    checkpoints = {v: inputs[f"checkpoint_{v}"] for v in params["variants"]}
+    rows, per_sample, tests = [], [], {}
+    for kind in KINDS:
+        split = split_name(kind, "test")
+        if f"{split}_dir" not in inputs:
+            continue
+        tests[kind] = NDRDataset.from_files(_split_files(inputs, split), params["mask_erosion"])
+        scores = score_split(kind, tests[kind], checkpoints, device)
+        rows += scores.rows
+        per_sample += scores.per_sample
+        if kind == "complex":
+            figures.comparison_figure(
+                scores.buffers, scores.truth, scores.methods, outputs["figure"]
+            )
+    io.write_csv(outputs["metrics"], pd.DataFrame(rows))
+    io.write_csv(outputs["samples"], pd.DataFrame(per_sample))
+    model = load_model(checkpoints["ndr"], device)
+    seconds = summary.network_seconds(model, tests["complex"], device)
+    where = f"cpu, {threads} threads" if device.type == "cpu" else device.type
+    io.write_csv(
+        outputs["timing"],
+        summary.timing_table(seconds, inputs["train_manifest"], inputs["test_manifest"], where),
+    )
+    figures.loss_figure({v: inputs[f"loss_{v}"] for v in params["variants"]}, outputs["curves"])
+
+
+def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The targets: the test metrics and the stage's time from every NDR job's benchmark
+    (its threads in ``params["job_threads"]``) on ``params["cores"]`` cores."""
+    minutes = summary.stage_minutes(inputs["benchmarks"], params["job_threads"], params["cores"])
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
+    io.write_csv(outputs["targets"], summary.targets(metrics, minutes, params["cores"]))
+
+
+def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Test sample ``relight_sample`` under ``relight_turns`` rotations of its map: the
+    scores of NDR and of the shading input per rotation, and the figure."""
+    mi, _ = require_mitsuba(params["device"])
+    sample = params["relight_sample"]
+    shifts, degrees = relight.rotations(params["environment_height"], params["relight_turns"])
+    buffers = relight.relit_buffers(mi, params, sample, shifts)
+    device = train.resolve_device(params["device"], threads)
+    images = relight.relight(load_model(inputs["checkpoint"], device), buffers, device)
+    table = relight.relight_table(images, buffers["mask"], sample, degrees)
+    io.write_csv(outputs["csv"], table)
+    figures.relighting_figure(
+        degrees,
+        images["truth"]["I_R"],
+        images["ndr"]["I_R"],
+        images[SHADING_INPUT]["I_R"],
+        table[table.metric == "dssim_I_R"],
+        outputs["figure"],
+    )

@@ -1,0 +1,106 @@
+"""Training one NDR variant (paper 3.3) with :func:`neurender.train.fit`.
+
+Every variant but ``pix2pix`` minimises :func:`neurender.ndr.model.loss_terms`. ``pix2pix``
+trains as published (Isola et al. 2017): L1 on the tone-mapped ``I_R`` in [-1, 1] within
+the mask, plus a conditional PatchGAN loss (Adam betas 0.5, 0.999).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import torch
+
+from neurender import train
+from neurender.display import reinhard
+from neurender.ndr.buffers import NDRDataset
+from neurender.ndr.model import (
+    NDRModel,
+    architecture,
+    compose,
+    loss_terms,
+    model_input_channels,
+    network_input,
+)
+from neurender.ndr.variants import VARIANTS, Variant
+from neurender.nn.pix2pix import NLayerDiscriminator, init_weights
+
+Batch = dict[str, torch.Tensor]
+
+
+def pix2pix_losses(variant: Variant, cfg: Mapping[str, Any]) -> tuple[Callable, train.Adversary]:
+    """pix2pix's generator loss (``l1_weight`` x L1 + ``gan_weight`` x GAN) and its
+    PatchGAN adversary (``ndf`` filters), in the form :func:`neurender.train.fit` takes."""
+    discriminator = init_weights(NLayerDiscriminator(model_input_channels(variant) + 3, cfg["ndf"]))
+    bce = torch.nn.BCEWithLogitsLoss()
+
+    def condition_and_target(batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
+        """pix2pix works in [-1, 1]: the input buffers and the tone-mapped ``I_R``."""
+        x = network_input(batch, variant.inputs) * 2 - 1
+        real = reinhard(compose(batch["I_D"], batch["I_S"], batch)["I_R"]) * 2 - 1
+        return x, real
+
+    def generator_loss(m: NDRModel, batch: Batch):
+        x, real = condition_and_target(batch)
+        fake = m.tone_mapped(batch)["I_R"] * 2 - 1
+        l1 = ((fake - real).abs() * batch["mask"]).mean()
+        loss = cfg["l1_weight"] * l1
+        logs = {"l1": l1.item()}
+        if m.training:
+            logits = discriminator(torch.cat([x, fake], 1))
+            gan = bce(logits, torch.ones_like(logits))
+            loss = loss + cfg["gan_weight"] * gan
+            logs["gan"] = gan.item()
+        return loss, logs, fake.detach()
+
+    def discriminator_loss(module: torch.nn.Module, batch: Batch, fake: torch.Tensor):
+        x, real = condition_and_target(batch)
+        r, f = module(torch.cat([x, real], 1)), module(torch.cat([x, fake], 1))
+        return 0.5 * (bce(r, torch.ones_like(r)) + bce(f, torch.zeros_like(f))), {}
+
+    return generator_loss, train.Adversary(discriminator, discriminator_loss)
+
+
+def train_variant(
+    name: str,
+    train_files: dict[str, str],
+    val_files: dict[str, str],
+    cfg: Mapping[str, Any],
+    threads: int,
+    checkpoint: str,
+    log_csv: str,
+) -> None:
+    """Train variant ``name`` on a split's ``train_files`` and ``val_files`` (each ``dir``,
+    ``manifest``, ``lighting``).
+
+    ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
+    ``lr_schedule``, the variant's :attr:`~neurender.ndr.variants.Variant.epochs_key`, its
+    :func:`~neurender.ndr.model.architecture` keys and, for ``pix2pix``, ``ndf``,
+    ``l1_weight`` and ``gan_weight``.
+    """
+    if name not in VARIANTS:
+        raise KeyError(f"NDR variant {name!r}: expected one of {sorted(VARIANTS)}")
+    variant = VARIANTS[name]
+    torch.manual_seed(cfg["seed"])
+    train_set = NDRDataset.from_files(train_files, cfg["mask_erosion"])
+    val_set = NDRDataset.from_files(val_files, cfg["mask_erosion"])
+    arch = architecture(variant, cfg)
+    model = NDRModel(variant, **arch)
+    config = train.TrainConfig.from_stage(cfg, threads, epochs=cfg[variant.epochs_key])
+    loss_fn, adversary = loss_terms, None
+    if variant.arch == "pix2pix":
+        config = dataclasses.replace(config, betas=(0.5, 0.999))
+        loss_fn, adversary = pix2pix_losses(variant, cfg)
+    train.fit(
+        model,
+        train_set,
+        val_set,
+        loss_fn,
+        config,
+        checkpoint,
+        log_csv,
+        extra_state={"variant": name, **arch},
+        adversary=adversary,
+    )

@@ -1,0 +1,48 @@
+import pandas as pd
+
+from neurender.ndr import summary
+from neurender.tables import TARGET_COLUMNS, tidy_rows
+
+
+def _metrics(rows: list[tuple[str, str, float]]) -> pd.DataFrame:
+    """Test DSSIM(I_R) rows ``(dataset, model, value)`` as the evaluation writes them."""
+    return pd.DataFrame(
+        [r for d, m, v in rows for r in tidy_rows("ndr", d, m, "test", {"dssim_I_R": v})]
+    )
+
+
+def test_stage_minutes_weigh_each_job_by_its_threads(tmp_path):
+    (tmp_path / "b.tsv").write_text("s\th:m:s\n600.0\t0:10:00\n")
+    # Two jobs of 600 s, on 2 threads and on 1: 15 min of wall time on 2 cores.
+    minutes = summary.stage_minutes([str(tmp_path / "b.tsv")] * 2, [2, 1], 2)
+    assert minutes == 15
+
+
+def test_targets_state_met_and_missed():
+    metrics = _metrics(
+        [
+            ("complex", "ndr", 0.05),
+            ("complex", "shading_input", 0.06),
+            ("complex", "no_intrinsic", 0.08),
+            ("complex", "pix2pix", 0.03),
+            ("complex", "noise floor", 0.01),
+        ]
+    )
+    table = summary.targets(metrics, minutes=15.0, cores=2)
+    assert list(table.columns) == list(TARGET_COLUMNS)
+    met = table.set_index("subject")["met"]
+    assert not met["ndr"]  # 0.05 > 0.75 * 0.06
+    assert met["no_intrinsic"].tolist() == [True, True]  # beaten by NDR, and >= 1.2 x NDR
+    assert not met["pix2pix"]
+    assert met["noise floor"]
+    assert met["stage"]  # 15 min <= 25
+    # Variants that did not run, and the diffuse comparison without its data, are not rows.
+    assert "single_decoder" not in met and "real_shading" not in met
+
+
+def test_missed_stage_budget():
+    metrics = _metrics([("complex", "ndr", 0.05), ("complex", "shading_input", 0.1)])
+    table = summary.targets(metrics, minutes=30.0, cores=2).set_index("subject")
+    assert table.loc["ndr", "met"]  # 50 % below the shading input
+    assert table.loc["ndr", "measured"] == 0.5
+    assert not table.loc["stage", "met"]

@@ -1,0 +1,63 @@
+# Helpers of workflow/rules/metaballs.smk: the names, config keys and input files its rules use.
+
+from neurender.metaballs import (
+    DEMO_VARIANTS as METABALLS_DEMO_VARIANTS,
+    GAN_VARIANTS as METABALLS_GAN_VARIANTS,
+    SPLITS as METABALLS_SPLITS,
+    VARIANTS as METABALLS_VARIANTS,
+)
+
+METABALLS_SCENE_KEYS = ("width", "balls", "radius")
+#: The keys of ``metaballs_model`` every training job reads; the GAN variants also ``ndf``
+#: and ``gan_weight`` (the others train with ``gan_weight`` 0).
+METABALLS_TRAIN_KEYS = ("ngf", "l1_weight", "flips", "batch_size", "lr", "lr_schedule")
+METABALLS_GAN_KEYS = ("ndf", "gan_weight")
+METABALLS_DEMO_KEYS = ("demo_frames", "demo_balls", "timing_balls")
+
+
+def metaballs_examples_params(wildcards):
+    split = wildcards.split
+    examples = config["metaballs"]["examples"][split]
+    return section_keys(
+        "metaballs", METABALLS_SCENE_KEYS, ("seed",), split=split, examples=examples
+    )
+
+
+def metaballs_train_params(wildcards):
+    """Only the variant's own epochs, so tuning one variant never retrains another."""
+    variant = wildcards.variant
+    gan = variant in METABALLS_GAN_VARIANTS
+    keys = METABALLS_TRAIN_KEYS + (METABALLS_GAN_KEYS if gan else ())
+    cfg = section_keys("metaballs_model", keys, ("seed", "device"), variant=variant)
+    cfg.update(
+        width=config["metaballs"]["width"],
+        epochs=config["metaballs_model"]["epochs"][variant],
+    )
+    return cfg if gan else {**cfg, "gan_weight": 0.0}
+
+
+def metaballs_evaluate_params():
+    return section_keys("metaballs", ("width",), ("device",))
+
+
+def metaballs_demo_params():
+    cfg = section_keys("metaballs_model", METABALLS_DEMO_KEYS, ("seed", "device"))
+    return {**cfg, **section_keys("metaballs", ("width", "radius"))}
+
+
+def metaballs_report_tables():
+    tables = ("targets", "metrics", "timing", "data")
+    return expand("results/metaballs/{table}.csv", table=tables)
+
+
+def metaballs_report_figures():
+    names = (
+        "comparison",
+        "accuracy_by_scene",
+        "demo_network_vs_raymarch",
+        "temporal_stability",
+        "frame_time_vs_balls",
+        "examples",
+    )
+    figures = expand("results/metaballs/figures/{name}.png", name=names)
+    return figures + ["results/metaballs/figures/demo.gif"]

@@ -1,0 +1,162 @@
+# Helpers of workflow/rules/ndr.smk: the names, config keys and input files its rules use.
+
+from neurender.ndr import DIFFUSE_SPLITS as NDR_DIFFUSE_SPLITS
+from neurender.ndr import DIFFUSE_VARIANTS as NDR_DIFFUSE_VARIANTS
+from neurender.ndr import PARTS as NDR_PARTS
+from neurender.ndr import SPLITS as NDR_SPLITS
+from neurender.ndr import VARIANTS as NDR_VARIANT_TABLE
+from neurender.ndr import split_kind as ndr_split_kind
+
+NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
+if config["ndr_model"]["relight_sample"] >= config["ndr"]["samples"]["test"]:
+    raise ValueError(
+        f"config: ndr_model.relight_sample {config['ndr_model']['relight_sample']} must be below "
+        f"ndr.samples.test ({config['ndr']['samples']['test']})"
+    )
+#: ndr keys every sample reads; a kind's or the test part's own keys.
+NDR_SAMPLE_KEYS = (
+    "width",
+    "primitives",
+    "edge_length",
+    "camera_distance",
+    "fov",
+    "environment_height",
+    "coarse_height",
+    "coarse_samples",
+    "spp",
+)
+NDR_KIND_KEYS = {
+    "complex": ("user_probes_dir", "user_probe_fraction"),
+    "diffuse": ("fixed_probe",),
+}
+NDR_TEST_KEYS = ("reference_spp",)
+#: ndr_model keys every training reads; an architecture's own (the pix2pix GAN's too).
+NDR_TRAIN_KEYS = ("mask_erosion", "batch_size", "lr", "lr_schedule")
+NDR_ARCH_KEYS = {
+    "ndr": ("widths", "sh_hidden"),
+    "pix2pix": ("ngf", "ndf", "l1_weight", "gan_weight"),
+}
+NDR_RELIGHT_KEYS = ("mask_erosion", "relight_sample", "relight_turns")
+
+
+def ndr_splits():
+    diffuse = any(v in NDR_DIFFUSE_VARIANTS for v in NDR_VARIANTS)
+    return list(NDR_PARTS + (NDR_DIFFUSE_SPLITS if diffuse else ()))
+
+
+def ndr_sample_keys(split):
+    """The ndr keys that make a sample of ``split``."""
+    kind, part = ndr_split_kind(split)
+    return (
+        NDR_SAMPLE_KEYS
+        + NDR_KIND_KEYS[kind]
+        + (NDR_TEST_KEYS if part == "test" else ())
+    )
+
+
+def ndr_data_params(wildcards):
+    """A split's sample keys, its sample count and its name."""
+    kind, part = ndr_split_kind(wildcards.split)
+    counts = config["ndr"]["samples" if kind == "complex" else "diffuse_samples"]
+    return section_keys(
+        "ndr",
+        ndr_sample_keys(wildcards.split),
+        ("seed", "device"),
+        split=wildcards.split,
+        count=counts[part],
+    )
+
+
+def ndr_summary_params():
+    """The furnace check's keys and the splits whose manifests are summarised."""
+    keys = ("width", "furnace_spp", "coarse_samples")
+    return section_keys("ndr", keys, ("seed", "device"), splits=ndr_splits())
+
+
+def ndr_train_params(wildcards):
+    """One variant's training keys: its own epochs and architecture (ndr.width too for
+    pix2pix; shading_residual where the variant can use it)."""
+    variant = NDR_VARIANT_TABLE[wildcards.variant]
+    keys = NDR_TRAIN_KEYS + (variant.epochs_key,) + NDR_ARCH_KEYS[variant.arch]
+    keys += ("shading_residual",) if variant.uses_prior else ()
+    extra = {"width": config["ndr"]["width"]} if variant.arch == "pix2pix" else {}
+    return section_keys(
+        "ndr_model", keys, ("seed", "device"), variant=wildcards.variant, **extra
+    )
+
+
+def ndr_evaluate_params():
+    return section_keys(
+        "ndr_model", ("mask_erosion",), ("device",), variants=list(NDR_VARIANTS)
+    )
+
+
+def ndr_relight_params(wildcards):
+    """The keys that regenerate a test sample, plus the relighting's own."""
+    sample = {k: config["ndr"][k] for k in ndr_sample_keys("test")}
+    return section_keys("ndr_model", NDR_RELIGHT_KEYS, ("seed", "device"), **sample)
+
+
+def ndr_split_files(split):
+    return {
+        "dir": f"results/ndr/{split}",
+        "manifest": f"results/ndr/{split}_manifest.csv",
+        "lighting": f"results/ndr/{split}_lighting.csv",
+    }
+
+
+def ndr_train_inputs(wildcards):
+    prefix = "diffuse_" if wildcards.variant in NDR_DIFFUSE_VARIANTS else ""
+    return {
+        f"{part}_{key}": path
+        for part in ("train", "val")
+        for key, path in ndr_split_files(prefix + part).items()
+    }
+
+
+def ndr_evaluate_inputs(wildcards):
+    inputs = {f"checkpoint_{v}": f"results/ndr/models/{v}.pt" for v in NDR_VARIANTS}
+    inputs.update(
+        {f"loss_{v}": f"results/ndr/models/{v}_loss.csv" for v in NDR_VARIANTS}
+    )
+    for split in ndr_splits():
+        if split.endswith("test"):
+            inputs.update(
+                {f"{split}_{k}": p for k, p in ndr_split_files(split).items()}
+            )
+    inputs["train_manifest"] = "results/ndr/train_manifest.csv"
+    return inputs
+
+
+def ndr_benchmarks():
+    """Every NDR job's benchmark file and its threads: the stage's measured time."""
+    train_threads = config["ndr_model"]["threads"]
+    return (
+        [(f"results/benchmarks/ndr_data/{s}.tsv", workflow.cores) for s in ndr_splits()]
+        + [
+            (f"results/benchmarks/ndr_train/{v}.tsv", train_threads)
+            for v in NDR_VARIANTS
+        ]
+        + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
+        + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
+        + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
+    )
+
+
+def ndr_targets_params():
+    """The threads of every benchmarked job (in ``ndr_benchmarks`` order) and the cores
+    the stage time is stated for."""
+    return {
+        "job_threads": [threads for _, threads in ndr_benchmarks()],
+        "cores": workflow.cores,
+    }
+
+
+def ndr_report_tables():
+    tables = ("targets", "metrics", "timing", "relighting", "furnace", "data")
+    return expand("results/ndr/{table}.csv", table=tables)
+
+
+def ndr_report_figures():
+    names = ("buffers", "comparison", "relighting", "training_curves")
+    return expand("results/ndr/figures/{name}.png", name=names)

@@ -1,0 +1,175 @@
+# Helpers of workflow/rules/prt.smk: the names, config keys and input files its rules use.
+
+from neurender.prt import (
+    EXPERIMENTS,
+    MATERIALS as PRT_MATERIALS,
+    SPLITS as PRT_SPLITS,
+)
+
+PRT_OBJECTS = list(config["prt"]["objects"])
+PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()
+PRT_LIGHT = f"results/prt/probes/{config['prt']['light']}_sh.csv"
+PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule")
+PRT_TRAIN_KEYS += ("residual_targets",)
+PRT_TRANSFER_KEYS = ("n_bands", "direction_sets", "ray_offset")
+
+
+wildcard_constraints:
+    object="[A-Za-z0-9_]+",
+    probe="[A-Za-z0-9_]+",
+    split="|".join(PRT_SPLITS),
+    material="|".join(PRT_MATERIALS),
+
+
+def prt_params(prt_keys=(), model_keys=(), top=(), **extra):
+    """A rule's keys of the ``prt`` and ``prt_model`` sections (:func:`section_keys`)."""
+    return {
+        **section_keys("prt", prt_keys, top),
+        **section_keys("prt_model", model_keys),
+        **extra,
+    }
+
+
+def prt_probe_params(wildcards):
+    return prt_params(("probe_height", "n_bands"), probe=wildcards.probe)
+
+
+def prt_geometry_image_params(wildcards):
+    keys = ("resolution", "source_vertices")
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_sequence_params(wildcards):
+    keys = ("frames", "experiment_points", "experiment_train_frames", "linear_range")
+    keys += ("excluded_expression",)
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_transfer_params(wildcards):
+    """Test frames get the clean reference's direction count (paper scale: >= 4x)."""
+    key = "reference_directions" if wildcards.split == "test" else "directions"
+    return prt_params(
+        PRT_TRANSFER_KEYS,
+        top=("seed",),
+        object=wildcards.object,
+        split=wildcards.split,
+        directions=config["prt"][key],
+    )
+
+
+def prt_noise_floor_params(wildcards):
+    keys = PRT_TRANSFER_KEYS + ("directions", "noise_floor_frames")
+    return prt_params(keys, top=("seed",), object=wildcards.object)
+
+
+def prt_figure_params(wildcards):
+    return prt_params(("n_bands",), object=wildcards.object)
+
+
+def prt_benchmark_params():
+    keys = PRT_TRANSFER_KEYS + ("directions", "benchmark_paper_scale")
+    return prt_params(keys, top=("seed",))
+
+
+def prt_train_params(wildcards):
+    """What a training job reads, so an edit of an evaluation key never retrains."""
+    return prt_params(
+        ("n_bands",), PRT_TRAIN_KEYS, ("seed", "device"), material=wildcards.material
+    )
+
+
+def prt_momoprt_params(wildcards):
+    keys = ("pca_components", "ridges")
+    return prt_params(("n_bands",), keys, material=wildcards.material)
+
+
+def prt_evaluate_params(wildcards):
+    keys = PRT_TRANSFER_KEYS + (
+        "directions",
+        "reference_directions",
+        "noise_floor_frames",
+    )
+    model = ("render_resolution", "glossy_exponent", "equal_quality_directions")
+    return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
+
+
+def prt_model_summary_params():
+    return prt_params(
+        ("resolution", "frames", "n_bands"),
+        ("equal_quality_directions",),
+        objects=PRT_OBJECTS,
+    )
+
+
+def prt_test_frame_params(wildcards):
+    """The section 4.2.2 experiments and the relighting figure."""
+    return prt_params(
+        ("n_bands",), ("render_resolution",), ("device",), object=wildcards.object
+    )
+
+
+def prt_probe_source(wildcards):
+    """A user probe file is an input of its job, so editing it reruns the job."""
+    path = config["prt"]["user_probes"].get(wildcards.probe)
+    return {"source": path} if path else {}
+
+
+def prt_object_source(wildcards):
+    """A user mesh file is an input of its geometry-image job, so editing it reruns the job."""
+    path = config["prt"]["user_meshes"].get(wildcards.object)
+    return {"source": path} if path else {}
+
+
+def prt_sequence_gim(wildcards):
+    """The section 4.2.2 experiments deform the head's geometry image."""
+    source = "head" if wildcards.object in EXPERIMENTS else wildcards.object
+    return f"results/prt/{source}/geometry_image.npz"
+
+
+def prt_split_files(wildcards, splits=PRT_SPLITS):
+    """Sequence file, frame folders and manifests of the given splits of one object."""
+    base = f"results/prt/{wildcards.object}"
+    inputs = {"seq": f"{base}/sequence.npz"}
+    for split in splits:
+        inputs[f"{split}_dir"] = f"{base}/{split}"
+        inputs[f"{split}_manifest"] = f"{base}/{split}_manifest.csv"
+    return inputs
+
+
+def prt_training_files(wildcards):
+    return prt_split_files(wildcards, ("train", "val"))
+
+
+def prt_evaluation_files(wildcards):
+    return prt_split_files(wildcards, ("val", "test"))
+
+
+def prt_test_files(wildcards):
+    return prt_split_files(wildcards, ("test",))
+
+
+def prt_train_priority(wildcards):
+    """The object networks first, the shorter experiment networks after them and the
+    seconds-long MoMoPRT fits (priority 0) in the gaps, so the two single-thread training
+    jobs keep both cores busy until the last one ends."""
+    return 1 if wildcards.object in EXPERIMENTS else 2
+
+
+def prt_report_tables():
+    tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
+    experiments = expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS)
+    return expand("results/prt/{table}.csv", table=tables) + experiments
+
+
+def prt_report_figures():
+    kinds = ("prediction", "frames")
+    per_object = expand(
+        "results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds
+    )
+    experiments = expand("results/prt/figures/{x}.png", x=PRT_EXPERIMENTS)
+    fixed = ["loss_curves", "equal_quality", "light_probes"]
+    if len(config["prt"]["probes"]) >= 2:
+        fixed.append(f"{PRT_OBJECTS[0]}_relight")
+    return (
+        per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
+    )
