@@ -46,36 +46,9 @@ def test_resume_after_interruption_is_identical(tmp_path):
     train_set, val_set = _problem()
     full = _model()
     train.fit(full, train_set, val_set, _loss, _cfg(4), tmp_path / "full.pt", tmp_path / "full.csv")
-
-    # interrupted run: 2 epochs done, the resume file is what an interruption leaves behind
-    part = _model()
-    train.fit(part, train_set, val_set, _loss, _cfg(2), tmp_path / "tmp.pt", tmp_path / "tmp.csv")
-    state = torch.load(tmp_path / "tmp.pt", weights_only=False)
-    assert len(state["history"]) == 2
-    # Recreate the resume state an interrupted 4-epoch run would hold after epoch 2.
-    partial = _model()
-    cfg = _cfg(4)
-    calls = {"n": 0}
-
-    def interrupting_loss(model, batch):
-        calls["n"] += 1
-        if calls["n"] > 2 * 4 + 1 * 1:  # 4 train steps/epoch + 1 val batch per epoch, 2 epochs
-            raise KeyboardInterrupt
-        return _loss(model, batch)
-
-    with pytest.raises(KeyboardInterrupt):
-        train.fit(
-            partial,
-            train_set,
-            val_set,
-            interrupting_loss,
-            cfg,
-            tmp_path / "r.pt",
-            tmp_path / "r.csv",
-        )
-    assert train.resume_path_for(tmp_path / "r.pt").exists()
+    assert _interrupted_run(tmp_path, _cfg(4), epochs_done=2).exists()
     resumed = _model()
-    train.fit(resumed, train_set, val_set, _loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+    train.fit(resumed, train_set, val_set, _loss, _cfg(4), tmp_path / "r.pt", tmp_path / "r.csv")
     a = torch.load(tmp_path / "full.pt", weights_only=False)
     b = torch.load(tmp_path / "r.pt", weights_only=False)
     for k in a["last_model"]:
@@ -147,14 +120,14 @@ def test_train_config_from_stage_picks_training_keys():
     assert (c.epochs, c.lr, c.seed, c.threads, c.betas) == (3, 0.01, 4, 2, (0.5, 0.999))
 
 
-def _interrupted_run(tmp_path, cfg, data_key=""):
-    """A run stopped by an exception after its first epoch: its resume file stays."""
+def _interrupted_run(tmp_path, cfg, data_key="", epochs_done=1):
+    """A run stopped by an exception after ``epochs_done`` epochs: its resume file stays."""
     train_set, val_set = _problem()
     calls = {"n": 0}
 
     def interrupting_loss(model, batch):
         calls["n"] += 1
-        if calls["n"] > 4 + 1:  # 4 train steps + 1 val batch: the first epoch completes
+        if calls["n"] > epochs_done * (4 + 1):  # 4 train steps + 1 val batch per epoch
             raise KeyboardInterrupt
         return _loss(model, batch)
 

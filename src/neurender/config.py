@@ -35,6 +35,15 @@ def _power_of_two_at_least(value: int, minimum: int, name: str, why: str) -> Ite
         yield f"{name} = {value}: expected a power of two >= {minimum} ({why})"
 
 
+def _halvable(size: int, widths: list, name: str, widths_name: str) -> Iterator[str]:
+    factor = 2 ** (len(widths) - 1)
+    if size % factor:
+        yield (
+            f"{name} = {size}: expected a multiple of {factor}, the downsampling of the "
+            f"U-Net's {len(widths)} levels ({widths_name})"
+        )
+
+
 def _names(names: list, builtins: tuple, user: Mapping, name: str) -> Iterator[str]:
     for entry in names:
         if entry not in builtins and entry not in user:
@@ -65,12 +74,7 @@ def _prt_problems(config: Mapping) -> Iterator[str]:
             f"prt.frames.train = {prt['frames']['train']}"
         )
     yield from _ordered(config, "prt", "linear_range")
-    factor = 2 ** (len(model["widths"]) - 1)
-    if prt["resolution"] % factor:
-        yield (
-            f"prt.resolution = {prt['resolution']}: expected a multiple of {factor}, the "
-            f"downsampling of the U-Net's {len(model['widths'])} levels (prt_model.widths)"
-        )
+    yield from _halvable(prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths")
     for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
         if not Path(path).is_file():
             yield f"prt user entry {name!r}: file {path} does not exist"
@@ -79,12 +83,7 @@ def _prt_problems(config: Mapping) -> Iterator[str]:
 def _ndr_problems(config: Mapping) -> Iterator[str]:
     ndr, model = config["ndr"], config["ndr_model"]
     yield from _ordered(config, "ndr", "primitives")
-    factor = 2 ** (len(model["widths"]) - 1)
-    if ndr["width"] % factor:
-        yield (
-            f"ndr.width = {ndr['width']}: expected a multiple of {factor}, the downsampling "
-            f"of the U-Net's {len(model['widths'])} levels (ndr_model.widths)"
-        )
+    yield from _halvable(ndr["width"], model["widths"], "ndr.width", "ndr_model.widths")
     if "pix2pix" in model["variants"]:
         yield from _power_of_two_at_least(
             ndr["width"], 32, "ndr.width", "the pix2pix baseline's U-Net halves it to 1 pixel"
