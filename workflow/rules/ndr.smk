@@ -4,6 +4,8 @@
 
 
 rule ndr_data:
+    input:
+        unpack(ndr_user_probe_files),
     output:
         samples=directory("results/ndr/{split}"),
         manifest="results/ndr/{split}_manifest.csv",
@@ -122,6 +124,7 @@ rule ndr_targets:
 
 rule ndr_relight:
     input:
+        unpack(ndr_user_probe_files),
         checkpoint="results/ndr/models/ndr.pt",
     output:
         csv="results/ndr/relighting.csv",

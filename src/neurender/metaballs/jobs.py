@@ -52,7 +52,10 @@ def metaballs_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One variant's generator, trained on the train split and validated on val."""
-    training.train_generator(inputs, params, threads, outputs["checkpoint"], outputs["loss"])
+    data_key = io.checksum(list(inputs.values()))
+    training.train_generator(
+        inputs, params, threads, outputs["checkpoint"], outputs["loss"], data_key
+    )
 
 
 def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

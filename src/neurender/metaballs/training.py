@@ -58,10 +58,16 @@ def split_dataset(files: Mapping[str, str], split: str, variant: str, flips: boo
 
 
 def train_generator(
-    files: Mapping[str, str], cfg: Mapping, threads: int, checkpoint: str, log_csv: str
+    files: Mapping[str, str],
+    cfg: Mapping,
+    threads: int,
+    checkpoint: str,
+    log_csv: str,
+    data_key: str = "",
 ) -> None:
     """Train one variant's generator (and, when ``gan_weight > 0``, its PatchGAN); write
-    its checkpoint and its tidy loss log.
+    its checkpoint and its tidy loss log (``data_key``: the training data's fingerprint,
+    see :func:`neurender.train.fit`).
 
     Args:
         files: ``train_dir, train_manifest, train_balls`` and the same for ``val``.
@@ -89,4 +95,5 @@ def train_generator(
         adversary=None
         if discriminator is None
         else train.Adversary(discriminator, discriminator_loss),
+        data_key=data_key,
     )

@@ -62,6 +62,7 @@ def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         threads,
         outputs["checkpoint"],
         outputs["loss"],
+        io.checksum(list(inputs.values())),
     )
 
 

@@ -71,9 +71,11 @@ def train_variant(
     threads: int,
     checkpoint: str,
     log_csv: str,
+    data_key: str = "",
 ) -> None:
     """Train variant ``name`` on a split's ``train_files`` and ``val_files`` (each ``dir``,
-    ``manifest``, ``lighting``).
+    ``manifest``, ``lighting``); ``data_key`` fingerprints them (see
+    :func:`neurender.train.fit`).
 
     ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
     ``lr_schedule``, the variant's :attr:`~neurender.ndr.variants.Variant.epochs_key`, its
@@ -103,4 +105,5 @@ def train_variant(
         log_csv,
         extra_state={"variant": name, **arch},
         adversary=adversary,
+        data_key=data_key,
     )

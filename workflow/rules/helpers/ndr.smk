@@ -1,5 +1,7 @@
 # Helpers of workflow/rules/ndr.smk: the names, config keys and input files its rules use.
 
+from pathlib import Path
+
 from neurender.ndr import DIFFUSE_SPLITS as NDR_DIFFUSE_SPLITS
 from neurender.ndr import DIFFUSE_VARIANTS as NDR_DIFFUSE_VARIANTS
 from neurender.ndr import PARTS as NDR_PARTS
@@ -8,11 +10,6 @@ from neurender.ndr import VARIANTS as NDR_VARIANT_TABLE
 from neurender.ndr import split_kind as ndr_split_kind
 
 NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
-if config["ndr_model"]["relight_sample"] >= config["ndr"]["samples"]["test"]:
-    raise ValueError(
-        f"config: ndr_model.relight_sample {config['ndr_model']['relight_sample']} must be below "
-        f"ndr.samples.test ({config['ndr']['samples']['test']})"
-    )
 #: ndr keys every sample reads; a kind's or the test part's own keys.
 NDR_SAMPLE_KEYS = (
     "width",
@@ -37,6 +34,15 @@ NDR_ARCH_KEYS = {
     "pix2pix": ("ngf", "ndf", "l1_weight", "gan_weight"),
 }
 NDR_RELIGHT_KEYS = ("mask_erosion", "relight_sample", "relight_turns")
+
+
+def ndr_user_probe_files(wildcards):
+    """The user's maps are inputs of every job that renders complex samples (a split of
+    them, or the relit test sample), so editing a map reruns exactly those jobs."""
+    folder = config["ndr"]["user_probes_dir"]
+    if not folder or ndr_split_kind(wildcards.get("split", "test"))[0] != "complex":
+        return {}
+    return {"user_probes": sorted(str(p) for p in Path(folder).glob("*.exr"))}
 
 
 def ndr_splits():
