@@ -9,6 +9,7 @@ configfile: "config/config.yaml"
 
 
 include: "workflow/rules/common.smk"
+include: "workflow/rules/examples.smk"
 include: "workflow/rules/helpers/prt.smk"
 include: "workflow/rules/helpers/ndr.smk"
 include: "workflow/rules/helpers/metaballs.smk"

@@ -1,5 +1,8 @@
 # Config validation and the helpers every rules file uses; each method's own helpers
 # live in its rules file.
+import glob
+from pathlib import Path
+
 from snakemake.utils import validate
 
 import neurender.config
@@ -18,3 +21,16 @@ def section_keys(section, keys, top=(), **extra):
     cfg.update({k: config[section][k] for k in keys})
     cfg.update(extra)
     return cfg
+
+
+def user_files(path):
+    """The input files behind a user-given path: itself when the workflow makes it (under
+    ``results/``, e.g. the example assets), else every file of a folder or a glob, so that
+    editing any of them reruns the jobs that read them."""
+    if path.startswith("results/"):
+        return [path]
+    if Path(path).is_dir():
+        return sorted(str(p) for p in Path(path).iterdir() if p.is_file())
+    if glob.has_magic(path):
+        return sorted(glob.glob(path))
+    return [path]

@@ -1,7 +1,5 @@
 # Helpers of workflow/rules/ndr.smk: the names, config keys and input files its rules use.
 
-from pathlib import Path
-
 from neurender.ndr import DIFFUSE_SPLITS as NDR_DIFFUSE_SPLITS
 from neurender.ndr import DIFFUSE_VARIANTS as NDR_DIFFUSE_VARIANTS
 from neurender.ndr import PARTS as NDR_PARTS
@@ -42,7 +40,7 @@ def ndr_user_probe_files(wildcards):
     folder = config["ndr"]["user_probes_dir"]
     if not folder or ndr_split_kind(wildcards.get("split", "test"))[0] != "complex":
         return {}
-    return {"user_probes": sorted(str(p) for p in Path(folder).glob("*.exr"))}
+    return {"user_probes": user_files(folder)}
 
 
 def ndr_splits():
