@@ -74,7 +74,7 @@ def _prt_problems(config: Mapping) -> Iterator[str]:
             f"prt.reference_directions = {prt['reference_directions']}: expected at least 4 x "
             f"prt.directions = {4 * prt['directions']} (a clean reference for the test frames)"
         )
-    if prt["experiment_train_frames"] > prt["frames"]["train"]:
+    if prt["experiments"] and prt["experiment_train_frames"] > prt["frames"]["train"]:
         yield (
             f"prt.experiment_train_frames = {prt['experiment_train_frames']}: expected at most "
             f"prt.frames.train = {prt['frames']['train']}"
