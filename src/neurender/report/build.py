@@ -28,19 +28,41 @@ TIDY_COLUMNS = ("method", "dataset", "model", "split", "metric", "value")
 class Section:
     key: str  # the method's folder under results/ and its value in the ``method`` column
     title: str
-    paper: str  # the source the published numbers come from
+    citation: str  # the publication the method and the published numbers come from
+    link: str  # its DOI (or URL)
 
 
 SECTIONS = (
     Section(
-        "prt", "DeepPRT: deep precomputed radiance transfer for deformable objects", "deepprt.txt"
+        "prt",
+        "DeepPRT: deep precomputed radiance transfer for deformable objects",
+        "Yue Li, Pablo Wiedemann, Kenny Mitchell. Deep Precomputed Radiance Transfer for "
+        "Deformable Objects. Proceedings of the ACM on Computer Graphics and Interactive "
+        "Techniques 2(1), 2019 (I3D 2019).",
+        "https://doi.org/10.1145/3320284",
     ),
     Section(
-        "ndr", "NDR: neural direct-illumination renderer", "ndr-neural-direct-illumination.txt"
+        "ndr",
+        "NDR: neural direct-illumination renderer",
+        "Christian Suppan, Andrew Chalmers, Junhong Zhao, Alex Doronin, Taehyun Rhee. Neural "
+        "Screen Space Rendering of Direct Illumination. Pacific Graphics 2021 Short Papers, "
+        "The Eurographics Association, 2021.",
+        "https://doi.org/10.2312/pg.20211385",
     ),
-    Section("metaballs", "Image-space metaballs (pix2pix)", "image-space-metaballs.txt"),
     Section(
-        "simplification", "Appearance-driven simplification", "appearance-driven-simplification.txt"
+        "metaballs",
+        "Image-space metaballs (pix2pix)",
+        "Robert Horvath. Image-Space Metaballs Using Deep Learning. Master's thesis, TU Wien, "
+        "Faculty of Informatics, 2019 (advisor Ivan Viola).",
+        "https://repositum.tuwien.at",
+    ),
+    Section(
+        "simplification",
+        "Appearance-driven simplification",
+        "Jon Hasselgren, Jacob Munkberg, Jaakko Lehtinen, Miika Aittala, Samuli Laine. "
+        "Appearance-Driven Automatic 3D Model Simplification. Eurographics Symposium on "
+        "Rendering 2021.",
+        "https://doi.org/10.2312/sr.20211293",
     ),
 )
 
@@ -123,7 +145,8 @@ def build_report(
             {
                 "key": section.key,
                 "title": section.title,
-                "source": section.paper,
+                "citation": section.citation,
+                "link": section.link,
                 "ran": bool(own_tables or own_figures),
                 # A stage's model results always land in metrics.csv; without it only data exist.
                 "data_only": bool(own_tables or own_figures)
