@@ -6,12 +6,15 @@ times brighter than the sky around it, plus coloured fill, so that occlusion mat
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
 import numpy as np
 
 from neurender import io, sh
+
+log = logging.getLogger(__name__)
 
 BUILTIN_PROBES = ("sky", "sunset", "studio")
 
@@ -54,8 +57,36 @@ def procedural_probe(name: str, height: int) -> np.ndarray:
     return img.astype(np.float32)
 
 
+def clamp_negative(image: np.ndarray) -> tuple[np.ndarray, int, float]:
+    """``image`` ``(H, 2H, 3)`` with negative values set to 0, how many there were and the
+    energy that adds relative to the clamped map's total (both weighted by solid angle,
+    summed over channels; 0 for a map without energy).
+
+    Resampled or compressed HDR maps (cubic filters, lossy EXR) ring next to the sun; the
+    negative lobes are small against the sun's energy and mean nothing physically.
+    """
+    negative = image < 0
+    count = int(negative.sum())
+    if not count:
+        return image, 0, 0.0
+    _, solid_angle = sh.latlong_directions(*image.shape[:2])
+    clamped = np.where(negative, 0, image).astype(image.dtype)
+    weight = solid_angle[..., None]
+    added = float(-(np.where(negative, image, 0) * weight).sum())
+    total = float((clamped * weight).sum())
+    return clamped, count, added / total if total > 0 else 0.0
+
+
 def load_probe(path: str | Path) -> np.ndarray:
-    """A user lat-long EXR with channels R, G, B as ``(H, W, 3)`` float32."""
+    """A user lat-long EXR with channels R, G, B as ``(H, W, 3)`` float32, ``W = 2H``.
+
+    Negative values (ringing of resampled maps) are clamped to 0 with a logged warning
+    that states their count and the energy the clamp adds (:func:`clamp_negative`).
+
+    Raises:
+        ValueError: naming the file, for missing channels, a map that is not 2:1, or NaN
+            or infinite radiance.
+    """
     chans = io.read_exr(path)
     names = [next((k for k in chans if k.split(".")[-1] == c), None) for c in "RGB"]
     if None in names:
@@ -65,8 +96,22 @@ def load_probe(path: str | Path) -> np.ndarray:
         raise ValueError(
             f"light probe {path} is {img.shape[1]}x{img.shape[0]}; a lat-long map is 2:1 (W = 2H)"
         )
-    if not np.isfinite(img).all() or (img < 0).any():
-        raise ValueError(f"light probe {path} has negative or non-finite radiance")
+    bad = ~np.isfinite(img)
+    if bad.any():
+        raise ValueError(
+            f"light probe {path} has {int(bad.sum())} NaN or infinite values (first at row, "
+            f"column {tuple(int(i) for i in np.argwhere(bad)[0][:2])}); re-export the map"
+        )
+    img, count, added = clamp_negative(img)
+    if count:
+        log.warning(
+            "light probe %s: clamped %d negative values (of %d) to 0, adding %.3g%% of the "
+            "map's energy",
+            path,
+            count,
+            img.size,
+            100 * added,
+        )
     return img
 
 

@@ -1,10 +1,13 @@
 """NDR dataset generation (paper 3.2): the samples of one split.
 
 One sample = one random object under one environment map, seen by the fixed camera of
-:mod:`neurender.ndr.render`, stored in the format of :mod:`neurender.ndr.buffers`. Two
+:mod:`neurender.ndr.render`, stored in the format of :mod:`neurender.ndr.buffers`. Three
 kinds of split: ``complex`` (SVBRDFs, a new random or user map per sample: the paper's
-"complex material, varying illumination") and ``diffuse`` (specular albedo 0, one fixed
-built-in map rotated never: the Real Shading setting).
+"complex material, varying illumination"; a share ``small_sun_fraction`` of the procedural
+maps has a real outdoor sun), ``diffuse`` (specular albedo 0, one fixed built-in map
+rotated never: the Real Shading setting) and ``sunlit`` (a test set only: complex
+objects under real-world-like outdoor maps, every one with the small sun, see
+:func:`neurender.ndr.environments.sunlit_environment`).
 
 Every sample is determined by ``(seed, split, index)`` alone (:func:`neurender.rng.
 stable_seed`), so samples render in any order, in any process.
@@ -50,21 +53,44 @@ def _user_probes(cfg: dict, part: str) -> list[Path]:
 def _environment(
     cfg: dict, kind: str, part: str, rng: np.random.Generator
 ) -> tuple[np.ndarray, str]:
-    """A sample's map ``(H, 2H, 3)`` and its name: the fixed probe for ``diffuse`` data,
-    else a procedural or user map (:func:`environments.environment_for_sample`)."""
+    """A sample's map ``(H, 2H, 3)`` and its name: the fixed probe for ``diffuse`` data, a
+    real-world-like map for ``sunlit`` data, else a procedural or user map
+    (:func:`environments.environment_for_sample`)."""
+    height = cfg["environment_height"]
     if kind == "diffuse":
-        env = lights.procedural_probe(cfg["fixed_probe"], cfg["environment_height"])
-        return env, cfg["fixed_probe"]
+        return lights.procedural_probe(cfg["fixed_probe"], height), cfg["fixed_probe"]
+    if kind == "sunlit":
+        env = environments.sunlit_environment(rng, height)
+        return environments.rotate_about_up(env, int(rng.integers(2 * height))), "sunlit"
     return environments.environment_for_sample(
-        rng, cfg["environment_height"], _user_probes(cfg, part), cfg["user_probe_fraction"]
+        rng,
+        height,
+        _user_probes(cfg, part),
+        cfg["user_probe_fraction"],
+        cfg["small_sun_fraction"],
     )
 
 
-def _coarse_maps(
-    cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, split: str, index: int
+def sample_scene(
+    cfg: dict, split: str, index: int
+) -> tuple[objects.ProceduralObject, np.ndarray, str, np.random.Generator]:
+    """The object, map ``(H, 2H, 3)`` and map name of sample ``index`` of ``split``, and the
+    sample's random generator (drawn from next for the render seed)."""
+    kind, part = split_kind(split)
+    rng = np.random.default_rng(stable_seed(cfg["seed"], "ndr", split, index))
+    obj = objects.random_object(
+        rng, tuple(cfg["primitives"]), cfg["edge_length"], diffuse_only=kind == "diffuse"
+    )
+    env, env_name = _environment(cfg, kind, part, rng)
+    return obj, env, env_name, rng
+
+
+def coarse_maps(
+    cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, *key
 ) -> tuple[np.ndarray, np.ndarray]:
     """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
-    (0 off the object), from the map downsampled to ``coarse_height`` rows."""
+    (0 off the object), from the map downsampled to ``coarse_height`` rows; ``key`` (e.g.
+    split and index) seeds the sample pattern."""
     width = cfg["width"]
     m = g["mask"].reshape(-1) > 0
     small = torch.from_numpy(environments.resize_latlong(env, cfg["coarse_height"]))
@@ -76,13 +102,13 @@ def _coarse_maps(
         torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2),
         small,
         cfg["coarse_samples"],
-        torch_generator(cfg["seed"], "ndr-coarse", split, index),
+        torch_generator(cfg["seed"], "ndr-coarse", *key),
     )
     s_d[m], s_s[m] = sd.numpy(), ss.numpy()
     return s_d.reshape(width, width, 3), s_s.reshape(width, width, 3)
 
 
-def _sample_channels(
+def sample_channels(
     g: dict[str, np.ndarray], s_d: np.ndarray, s_s: np.ndarray, maps: dict[str, np.ndarray]
 ) -> dict[str, np.ndarray]:
     """A sample's EXR channels from its G-buffers, coarse shading and ground truth."""
@@ -113,12 +139,8 @@ def make_sample(
     the sample's statistics and its timings in seconds on one core.
     """
     kind, part = split_kind(split)
-    rng = np.random.default_rng(stable_seed(cfg["seed"], "ndr", split, index))
     start = time.perf_counter()
-    obj = objects.random_object(
-        rng, tuple(cfg["primitives"]), cfg["edge_length"], diffuse_only=kind == "diffuse"
-    )
-    env, env_name = _environment(cfg, kind, part, rng)
+    obj, env, env_name, rng = sample_scene(cfg, split, index)
     env = environments.rotate_about_up(env, env_shift)
     view = render.camera(cfg["camera_distance"], cfg["fov"])
     width = cfg["width"]
@@ -131,9 +153,9 @@ def make_sample(
     render_seconds = time.perf_counter() - tic
 
     tic = time.perf_counter()
-    s_d, s_s = _coarse_maps(cfg, g, env, split, index)
+    s_d, s_s = coarse_maps(cfg, g, env, split, index)
     coarse_seconds = time.perf_counter() - tic
-    out = _sample_channels(g, s_d, s_s, maps)
+    out = sample_channels(g, s_d, s_s, maps)
     noisy_seconds = math.nan
     if part == "test":
         tic = time.perf_counter()
@@ -170,7 +192,8 @@ def generate_split(
     cfg: dict, split: str, count: int, folder: str, manifest: str, lighting: str, workers: int
 ) -> None:
     """Render ``count`` samples of ``split`` into ``folder`` and write the manifest and SH
-    lighting CSVs.
+    lighting CSVs. The user's maps (complex splits) are all checked first
+    (:func:`environments.check_user_probes`).
 
     With ``workers > 1`` samples render in that many forked single-threaded processes (at
     64 px one process per core is faster than Dr.Jit's threads); a process that already
@@ -178,6 +201,8 @@ def generate_split(
     fork (and spawn would re-run a Snakemake script's top level). A sample that fails ends
     the job with its error and traceback (see :mod:`neurender.ndr.pool`).
     """
+    if split_kind(split)[0] == "complex" and cfg["user_probes_dir"]:
+        environments.check_user_probes(cfg["user_probes_dir"], cfg["environment_height"])
     Path(folder).mkdir(parents=True, exist_ok=True)
     if workers > 1 and "drjit" in sys.modules:
         log.warning("Dr.Jit already loaded in this process: rendering %s in-process", split)

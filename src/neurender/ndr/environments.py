@@ -9,6 +9,7 @@ coefficient-major (``k * 3 + channel``, ``k = l (l + 1) + m``).
 from __future__ import annotations
 
 import colorsys
+import functools
 import math
 from pathlib import Path
 
@@ -19,6 +20,11 @@ from neurender import lights, sh
 
 SH_BANDS = 5
 SH_FEATURES = SH_BANDS**2 * 3
+#: The sun of outdoor maps: its angular diameter (degrees) and its radiance range as a
+#: multiple of the sky level (log-uniform; the real sun is about 1e5 to 3e5 x a clear sky's
+#: zenith, and our skies carry a fill lobe besides).
+SMALL_SUN_DIAMETER_DEG = 0.53
+SMALL_SUN_RADIANCE = (5e4, 1e6)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -37,12 +43,57 @@ def _colour(rng: np.random.Generator, saturation: float) -> np.ndarray:
     return np.array(colorsys.hsv_to_rgb(rng.uniform(), rng.uniform(0, saturation), 1.0))
 
 
-def random_environment(rng: np.random.Generator, height: int) -> np.ndarray:
+def texel_solid_angles(height: int) -> np.ndarray:
+    """Exact solid angle ``(height,)`` of one texel per row of a ``(height, 2 height)``
+    lat-long map, steradians (``(2 pi / W) (cos theta0 - cos theta1)``)."""
+    edges = np.cos(np.pi * np.arange(height + 1) / height)
+    return (edges[:-1] - edges[1:]) * (np.pi / height)
+
+
+def add_small_sun(image: np.ndarray, direction: np.ndarray, radiance: np.ndarray) -> np.ndarray:
+    """``image`` ``(H, 2H, 3)`` plus a sun of :data:`SMALL_SUN_DIAMETER_DEG` and ``radiance``
+    (RGB) centred on unit ``direction``: its power (radiance x its solid angle) deposited
+    in the one texel holding ``direction``, as an area-weighted downsampling of a finer map
+    would (a half-degree disk is below a texel at any size used here)."""
+    height, width = image.shape[:2]
+    radius = math.radians(SMALL_SUN_DIAMETER_DEG / 2)
+    power = np.asarray(radiance, np.float64) * 2 * math.pi * (1 - math.cos(radius))
+    theta = math.acos(float(np.clip(direction[1], -1, 1)))
+    phi = math.atan2(direction[0], -direction[2]) % (2 * math.pi)
+    row = min(int(theta / math.pi * height), height - 1)
+    col = min(int(phi / (2 * math.pi) * width), width - 1)
+    out = image.copy()
+    out[row, col] += (power / texel_solid_angles(height)[row]).astype(image.dtype)
+    return out
+
+
+def procedural_environment(
+    rng: np.random.Generator, height: int, small_sun_fraction: float = 0.0
+) -> tuple[np.ndarray, str]:
+    """:func:`random_environment`'s map and its name: ``procedural sun`` for a map with
+    the small outdoor sun, else ``procedural``."""
+    return _random_environment(rng, height, small_sun_fraction)
+
+
+def random_environment(
+    rng: np.random.Generator, height: int, small_sun_fraction: float = 0.0
+) -> np.ndarray:
     """A random map ``(height, 2 height, 3)`` with real dynamic range.
 
-    Sky gradient (zenith, horizon and ground colours), a coloured fill lobe, and one or two
-    emitters: a sun (2-6 degree disk, 100-2000 x the sky) or a window-like soft rectangle.
+    Sky gradient (zenith, horizon and ground colours), a coloured fill lobe, then with
+    probability ``small_sun_fraction`` an outdoor sun as real maps have one
+    (:data:`SMALL_SUN_DIAMETER_DEG` across, :data:`SMALL_SUN_RADIANCE` times the sky's
+    radiance, log-uniform: the sun then holds about 25 % to 85 % of the map's power, median
+    60 %, in one
+    texel; :func:`add_small_sun`), else one or two broad emitters: a sun (2-6 degree disk,
+    100-2000 x the sky) or a window-like soft rectangle.
     """
+    return _random_environment(rng, height, small_sun_fraction)[0]
+
+
+def _random_environment(
+    rng: np.random.Generator, height: int, small_sun_fraction: float
+) -> tuple[np.ndarray, str]:
     dirs, _ = sh.latlong_directions(height, 2 * height)
     up = dirs[..., 1:2]
     sky_level = rng.uniform(0.1, 0.8)
@@ -53,6 +104,12 @@ def random_environment(rng: np.random.Generator, height: int) -> np.ndarray:
     fill_dir = _random_direction(rng, -30)
     fill = np.clip(dirs @ fill_dir, 0, 1)[..., None] ** rng.uniform(1, 4)
     img = img + fill * _colour(rng, 0.8) * rng.uniform(0.1, 1.0)
+    if small_sun_fraction > 0 and rng.uniform() < small_sun_fraction:
+        low, high = np.log(SMALL_SUN_RADIANCE)
+        level = sky_level * math.exp(rng.uniform(low, high))
+        direction = _random_direction(rng, 5)
+        sun = _colour(rng, 0.3) * level
+        return add_small_sun(img.astype(np.float32), direction, sun), "procedural sun"
     for _ in range(int(rng.integers(1, 3))):
         centre = _random_direction(rng, 5)
         cos_angle = dirs @ centre
@@ -71,7 +128,21 @@ def random_environment(rng: np.random.Generator, height: int) -> np.ndarray:
                 * (cos_angle > 0)
             )
             img = img + inside[..., None] * _colour(rng, 0.2) * rng.uniform(3, 15)
-    return np.asarray(img, np.float32)
+    return np.asarray(img, np.float32), "procedural"
+
+
+def sunlit_environment(rng: np.random.Generator, height: int) -> np.ndarray:
+    """A real-world-like outdoor map: :func:`random_environment` always with the small sun."""
+    return random_environment(rng, height, small_sun_fraction=1.0)
+
+
+def sun_share(image: np.ndarray, height: int = 16) -> float:
+    """The brightest texel's share of the map's power (mean over RGB) once the map is
+    downsampled to ``height`` rows (:func:`resize_latlong`; the paper's coarse map is
+    32 x 16): about 0.3 at most for broad emitters, over 0.5 for real outdoor maps."""
+    small = resize_latlong(image, height).astype(np.float64).mean(-1)
+    power = small * texel_solid_angles(height)[:, None]
+    return float(power.max() / power.sum())
 
 
 def rotate_about_up(image: np.ndarray, columns: int) -> np.ndarray:
@@ -102,7 +173,7 @@ def sh_features(image: np.ndarray) -> np.ndarray:
 
 def user_probes(folder: str | Path) -> list[Path]:
     """The ``*.exr`` lat-long maps in ``folder`` (sorted), each checked by
-    :func:`neurender.lights.load_probe` when used."""
+    :func:`neurender.lights.load_probe` when used (:func:`check_user_probes` checks all)."""
     path = Path(folder)
     if not path.is_dir():
         raise FileNotFoundError(f"ndr.user_probes_dir {path} is not a folder of EXR maps")
@@ -112,14 +183,37 @@ def user_probes(folder: str | Path) -> list[Path]:
     return found
 
 
+@functools.lru_cache(maxsize=64)
+def user_map(path: Path, height: int) -> np.ndarray:
+    """A user map resized to ``height`` rows (:func:`neurender.lights.load_probe`: negative
+    values clamped with one warning, NaN, infinities and wrong shapes refused naming the
+    file). Cached, so a process (and the processes it forks) warns once per map; treat the
+    result as read-only."""
+    return resize_latlong(lights.load_probe(path), height)
+
+
+def check_user_probes(folder: str | Path, height: int) -> list[Path]:
+    """Load every map of ``folder`` before any sample is rendered, so a bad map stops the
+    job at once, naming its file; the maps found."""
+    found = user_probes(folder)
+    for path in found:
+        user_map(path, height)
+    return found
+
+
 def environment_for_sample(
-    rng: np.random.Generator, height: int, probes: list[Path], user_fraction: float
+    rng: np.random.Generator,
+    height: int,
+    probes: list[Path],
+    user_fraction: float,
+    small_sun_fraction: float = 0.0,
 ) -> tuple[np.ndarray, str]:
     """A map for one sample and its name: with probability ``user_fraction`` a user probe
-    (resized and randomly rotated), else a procedural one (also randomly rotated)."""
+    (resized and randomly rotated), else a procedural one (also randomly rotated; a share
+    ``small_sun_fraction`` of them with the small outdoor sun, :func:`random_environment`)."""
     if probes and rng.uniform() < user_fraction:
         path = probes[int(rng.integers(len(probes)))]
-        image, name = resize_latlong(lights.load_probe(path), height), path.stem
+        image, name = user_map(path, height), path.stem
     else:
-        image, name = random_environment(rng, height), "procedural"
+        image, name = procedural_environment(rng, height, small_sun_fraction)
     return rotate_about_up(image, int(rng.integers(2 * height))), name

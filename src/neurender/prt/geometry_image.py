@@ -4,6 +4,14 @@ Conventions: the parametric domain is ``[0, 1]^2`` with ``uv = (u, v)``; grid ve
 of an ``n x n`` geometry image sits at ``u = j / (n - 1)``, ``v = i / (n - 1)``, so row ``i``
 is an image row and column ``j`` an image column. Grid vertices are flattened row-major
 (index ``i * n + j``). Positions are in the source mesh's world units.
+
+The map is harmonic (cotangent weights) where that is bijective, else uniform (Tutte)
+weights, which Floater's theorem makes bijective for a convex boundary unless an interior
+edge joins two vertices on one side of the square: the triangles between such an edge
+and that side (a boundary "ear" of a third-party mesh, a chord along a cut) collapse onto
+the side. :func:`build_geometry_image` splits every such edge at its midpoint first (the
+new vertex is interior), so a disk always maps without flipped triangles. Map quality is
+reported as Sander et al.'s (2001) L2 and max stretch, normalised so that 1 is isometric.
 """
 
 from __future__ import annotations
@@ -32,6 +40,10 @@ class GeometryImage:
         n: grid side.
         method: ``"cotangent"`` or ``"uniform"`` (Tutte) weights.
         flipped: number of flipped (non-positive area) triangles of the map.
+        split_edges: interior edges split at their midpoint before mapping (their two
+            ends on one side of the square); their new vertices follow the rows of ``uv``
+            that belong to the source vertices.
+        stretch_l2, stretch_max: Sander et al.'s normalised L2 and max stretch of the map.
     """
 
     uv: np.ndarray
@@ -40,6 +52,9 @@ class GeometryImage:
     n: int
     method: str
     flipped: int
+    split_edges: int = 0
+    stretch_l2: float = float("nan")
+    stretch_max: float = float("nan")
 
     def resample(self, faces: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Interpolate per-source-vertex ``values`` ``(V, ...)`` onto the grid ``(n, n, ...)``."""
@@ -49,7 +64,12 @@ class GeometryImage:
         return out.reshape((self.n, self.n) + values.shape[1:])
 
 
-def boundary_square(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
+def boundary_square(
+    vertices: np.ndarray,
+    loop: np.ndarray,
+    uniform_share: float = 0.0,
+    corners: list[int] | None = None,
+) -> np.ndarray:
     """Map a boundary loop to the unit square's perimeter by arc length, four corners pinned.
 
     Corners are the loop vertices nearest to arc-length fractions 0, 1/4, 1/2, 3/4; between
@@ -58,6 +78,10 @@ def boundary_square(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
     Args:
         vertices: ``(V, 3)`` positions.
         loop: ``(L,)`` boundary vertex indices in order (L >= 4).
+        uniform_share: weight of uniform spacing blended into the arc length, so that
+            boundary edges of zero length still get distinct points.
+        corners: four increasing positions in ``loop`` to pin to the corners instead
+            (the first must be 0).
 
     Returns:
         ``(L, 2)`` points on the perimeter, in loop order.
@@ -66,8 +90,11 @@ def boundary_square(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
         raise ValueError(f"boundary loop has {len(loop)} vertices; a square needs at least 4")
     seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
     s = np.concatenate([[0.0], np.cumsum(seg)])  # arc length at each loop vertex, then the total
+    if uniform_share:
+        s = (1 - uniform_share) * s / s[-1] + uniform_share * np.arange(len(s)) / len(loop)
     total = s[-1]
-    corners = [int(np.argmin(np.abs(s[:-1] - k * total / 4))) for k in range(4)]
+    if corners is None:
+        corners = [int(np.argmin(np.abs(s[:-1] - k * total / 4))) for k in range(4)]
     if len(set(corners)) < 4:
         raise ValueError("boundary loop too short to pin four distinct corners")
     out = np.zeros((len(loop), 2))
@@ -105,32 +132,175 @@ def _tutte(faces: np.ndarray, n_vertices: int, b: np.ndarray, bc: np.ndarray) ->
     return uv
 
 
-def harmonic_square_map(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, str, int]:
-    """Harmonic (cotangent) map of a disk-topology mesh onto the unit square.
+def square_boundary(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    uniform_share: float = 0.0,
+    anchors: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary loop ``(L,)`` of a disk, counter-clockwise like the square, and its
+    points on the square ``(L, 2)`` (:func:`boundary_square`).
 
-    Falls back to uniform (Tutte) weights when cotangent weights flip a triangle (obtuse
-    triangles make cotangent weights negative).
-
-    Returns:
-        ``uv`` ``(V, 2)``, the weights used, and the number of flipped triangles left.
+    ``anchors`` ``(V,)`` marks the boundary vertices where the cut of a closed surface
+    branches or ends (:class:`neurender.prt.disk.DiskMesh`): the loop then starts at one
+    and, when there are at least four, every corner is the one nearest to its quarter of
+    the arc length, so a torus cut along a meridian and a longitude unrolls onto the
+    square as the rectangle it is.
     """
     loop = np.asarray(igl.boundary_loop(faces), dtype=np.int64)
     # Start at the lower-left extreme (min x + y) so a face-like mesh facing +z gets its
     # corners on the diagonals and lands upright in the image.
-    loop = np.roll(loop, -int(np.argmin(vertices[loop, 0] + vertices[loop, 1])))
-    bc = boundary_square(vertices, loop)
-    # Orient the loop like the square (counter-clockwise w.r.t. the faces); a reversed loop
-    # would flip every triangle.
-    uv = igl.harmonic(vertices, faces, loop, bc, 1)
-    if signed_areas(uv, faces).sum() < 0:
+    marked = np.zeros(len(loop), bool) if anchors is None else anchors[loop]
+    candidates = np.nonzero(marked)[0] if marked.any() else np.arange(len(loop))
+    key = vertices[loop[candidates], 0] + vertices[loop[candidates], 1]
+    loop = np.roll(loop, -int(candidates[np.argmin(key)]))
+    # The interior lies left of a boundary edge in its triangle's order, as it does left of
+    # the square's counter-clockwise perimeter; a loop the other way would flip every triangle.
+    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    if not ((directed[:, 0] == loop[0]) & (directed[:, 1] == loop[1])).any():
         loop = np.roll(loop[::-1], 1)  # same start vertex, other direction
-        bc = boundary_square(vertices, loop)
+    corners = None
+    if marked.sum() >= 4:
+        corners = _anchored_corners(vertices, loop, np.nonzero(anchors[loop])[0])
+    return loop, boundary_square(vertices, loop, uniform_share, corners)
+
+
+def _anchored_corners(vertices: np.ndarray, loop: np.ndarray, marked: np.ndarray) -> list[int]:
+    """Positions in ``loop`` of the marked vertices nearest to the quarters of its arc
+    length (``marked`` holds 0, the start); None when two quarters pick the same one."""
+    seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    corners = [0] + [int(marked[np.argmin(np.abs(s[marked] - k * s[-1] / 4))]) for k in (1, 2, 3)]
+    return corners if all(a < b for a, b in zip(corners, corners[1:])) else None
+
+
+def count_flipped(uv: np.ndarray, faces: np.ndarray) -> int:
+    """Triangles of non-positive (or undefined) area in the plane."""
+    return int((~(signed_areas(uv, faces) > 0)).sum())
+
+
+def map_to_square(
+    vertices: np.ndarray, faces: np.ndarray, loop: np.ndarray, bc: np.ndarray
+) -> tuple[np.ndarray, str, int]:
+    """Harmonic (cotangent) map with the boundary ``loop`` pinned at ``bc``; uniform
+    (Tutte) weights when that flips a triangle (obtuse triangles make cotangent weights
+    negative, degenerate ones undefined).
+
+    Returns:
+        ``uv`` ``(V, 2)``, the weights used, and the number of flipped triangles left.
+    """
+    with np.errstate(all="ignore"):
         uv = igl.harmonic(vertices, faces, loop, bc, 1)
-    flipped = int((signed_areas(uv, faces) <= 0).sum())
-    if flipped == 0:
+    if np.isfinite(uv).all() and count_flipped(uv, faces) == 0:
         return uv, "cotangent", 0
     uv = _tutte(faces, len(vertices), loop, bc)
-    return uv, "uniform", int((signed_areas(uv, faces) <= 0).sum())
+    return uv, "uniform", count_flipped(uv, faces)
+
+
+def harmonic_square_map(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, str, int]:
+    """Harmonic map of a disk-topology mesh onto the unit square (:func:`map_to_square`),
+    boundary by arc length (:func:`square_boundary`).
+
+    Returns:
+        ``uv`` ``(V, 2)``, the weights used, and the number of flipped triangles left.
+    """
+    loop, bc = square_boundary(vertices, faces)
+    return map_to_square(vertices, faces, loop, bc)
+
+
+def same_side_edges(faces: np.ndarray, loop: np.ndarray, bc: np.ndarray) -> np.ndarray:
+    """Interior edges ``(E, 2)`` whose two ends lie on one side of the square (a corner
+    lies on both of its sides): Floater's condition for a bijective Tutte map fails there."""
+    bits = np.zeros(int(faces.max()) + 1, np.int64)
+    bits[loop] = (
+        (bc[:, 1] == 0) * 1 + (bc[:, 0] == 1) * 2 + (bc[:, 1] == 1) * 4 + (bc[:, 0] == 0) * 8
+    )
+    edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    boundary = np.sort(np.stack([loop, np.roll(loop, -1)], 1), axis=1)
+    base = len(bits)
+    on_boundary = np.isin(edges @ [base, 1], boundary @ [base, 1])
+    return edges[((bits[edges[:, 0]] & bits[edges[:, 1]]) != 0) & ~on_boundary]
+
+
+def split_edges(
+    vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Split each edge at its midpoint, and the (one or two) triangles on it in two.
+
+    Returns:
+        vertices with the midpoints appended, the new faces (same winding), each new
+        triangle's source triangle ``(F',)`` and its corners' barycentric coordinates in
+        that triangle ``(F', 3, 3)``.
+    """
+    vertices = list(np.asarray(vertices, dtype=np.float64))
+    faces = [list(f) for f in np.asarray(faces, dtype=np.int64)]
+    parent = list(range(len(faces)))
+    corners = [np.eye(3) for _ in faces]
+    targets = {tuple(sorted(e)) for e in np.asarray(edges).tolist()}
+    owners = {e: [] for e in targets}  # the triangles on each edge still to split
+    for k, f in enumerate(faces):
+        for i in range(3):
+            e = tuple(sorted((f[i], f[(i + 1) % 3])))
+            if e in owners:
+                owners[e].append(k)
+    for a, b in sorted(targets):
+        m = len(vertices)
+        vertices.append(0.5 * (vertices[a] + vertices[b]))
+        for k in owners.pop((a, b)):
+            f, w = faces[k], corners[k]
+            i = next(i for i in range(3) if {f[i], f[(i + 1) % 3]} == {a, b})
+            x, y, z = f[i], f[(i + 1) % 3], f[(i + 2) % 3]
+            wm = 0.5 * (w[i] + w[(i + 1) % 3])
+            # (x, y, z) -> (x, m, z) in place and (m, y, z) appended; edge (y, z) moves.
+            faces[k], corners[k] = [x, m, z], np.stack([w[i], wm, w[(i + 2) % 3]])
+            faces.append([m, y, z])
+            corners.append(np.stack([wm, w[(i + 1) % 3], w[(i + 2) % 3]]))
+            parent.append(parent[k])
+            moved = tuple(sorted((y, z)))
+            if moved in owners:
+                owners[moved] = [len(faces) - 1 if o == k else o for o in owners[moved]]
+    return (
+        np.array(vertices),
+        np.array(faces, dtype=np.int64),
+        np.array(parent, dtype=np.int64),
+        np.array(corners),
+    )
+
+
+def stretch(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> dict[str, float]:
+    """Sander et al.'s (2001) stretch of the map from the plane ``uv`` to the surface.
+
+    Per triangle, with ``a, b, c`` the entries of the metric tensor of the Jacobian
+    ``(dS/du, dS/dv)``: L2 stretch ``sqrt((a + c) / 2)`` and max stretch ``Gamma`` (the
+    larger singular value). Returns the area-weighted L2 norm over the surface and the
+    largest ``Gamma``, both times ``sqrt(planar area / surface area)`` so that 1 is
+    isometric (up to scale) and larger is worse; flipped triangles are left out.
+    """
+    q = np.asarray(vertices, dtype=np.float64)[faces]
+    p = np.asarray(uv, dtype=np.float64)[faces]
+    s, t = p[..., 0], p[..., 1]
+    area2 = signed_areas(uv, faces)
+    area3 = 0.5 * np.linalg.norm(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]), axis=1)
+    ok = area2 > 0
+    q, s, t, a2 = q[ok], s[ok], t[ok], area2[ok][:, None]
+    ss = (
+        q[:, 0] * (t[:, 1:2] - t[:, 2:3])
+        + q[:, 1] * (t[:, 2:3] - t[:, 0:1])
+        + q[:, 2] * (t[:, 0:1] - t[:, 1:2])
+    ) / (2 * a2)
+    st = (
+        q[:, 0] * (s[:, 2:3] - s[:, 1:2])
+        + q[:, 1] * (s[:, 0:1] - s[:, 2:3])
+        + q[:, 2] * (s[:, 1:2] - s[:, 0:1])
+    ) / (2 * a2)
+    a, b, c = (ss * ss).sum(1), (ss * st).sum(1), (st * st).sum(1)
+    l2 = np.sqrt((a + c) / 2)
+    gamma = np.sqrt(((a + c) + np.sqrt((a - c) ** 2 + 4 * b * b)) / 2)
+    scale = np.sqrt(area2[ok].sum() / area3[ok].sum())
+    return {
+        "l2": float(np.sqrt((l2**2 * area3[ok]).sum() / area3[ok].sum()) * scale),
+        "max": float(gamma.max() * scale),
+    }
 
 
 def grid_uv(n: int) -> np.ndarray:
@@ -140,28 +310,56 @@ def grid_uv(n: int) -> np.ndarray:
     return np.stack([u.ravel(), v.ravel()], axis=1)
 
 
-def build_geometry_image(vertices: np.ndarray, faces: np.ndarray, n: int) -> GeometryImage:
+def build_geometry_image(
+    vertices: np.ndarray, faces: np.ndarray, n: int, anchors: np.ndarray | None = None
+) -> GeometryImage:
     """Parametrise a disk-topology mesh and locate every grid point in it.
 
     Args:
         vertices: ``(V, 3)`` float positions.
         faces: ``(F, 3)`` int triangles.
         n: grid side.
+        anchors: ``(V,)`` bool, boundary vertices preferred as corners
+            (:func:`square_boundary`).
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    uv, method, flipped = harmonic_square_map(vertices, faces)
+    loop, bc = square_boundary(vertices, faces, anchors=anchors)
+    uv, method, flipped = map_to_square(vertices, faces, loop, bc)
+    mapped_vertices, mapped_faces = vertices, faces
+    parent, corners, split = np.arange(len(faces)), None, np.zeros((0, 2), np.int64)
+    if flipped:
+        # Boundary edges of zero length (repeated vertices) would share a point of the square.
+        seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
+        if (seg <= 1e-12 * seg.sum()).any():
+            loop, bc = square_boundary(vertices, faces, 0.05, anchors)
+        split = same_side_edges(faces, loop, bc)
+        mapped_vertices, mapped_faces, parent, corners = split_edges(vertices, faces, split)
+        uv, method, flipped = map_to_square(mapped_vertices, mapped_faces, loop, bc)
     uv3 = np.column_stack([uv, np.zeros(len(uv))])  # igl's AABB wants 3-D points
     tree = igl.AABB()
-    tree.init(uv3, faces)
+    tree.init(uv3, mapped_faces)
     query = np.column_stack([grid_uv(n), np.zeros(n * n)])
-    _, face, closest = tree.squared_distance(uv3, faces, query)
+    _, face, closest = tree.squared_distance(uv3, mapped_faces, query)
     face = np.asarray(face, dtype=np.int64).ravel()
-    tri = uv3[faces[face]]
+    tri = uv3[mapped_faces[face]]
     bary = igl.barycentric_coordinates(closest, tri[:, 0], tri[:, 1], tri[:, 2])
     bary = np.clip(bary, 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
-    return GeometryImage(uv=uv, face=face, bary=bary, n=n, method=method, flipped=flipped)
+    if corners is not None:  # back to the triangles of the input mesh
+        face, bary = parent[face], np.einsum("pk,pkc->pc", bary, corners[face])
+    quality = stretch(mapped_vertices, mapped_faces, uv)
+    return GeometryImage(
+        uv=uv,
+        face=face,
+        bary=bary,
+        n=n,
+        method=method,
+        flipped=flipped,
+        split_edges=len(split),
+        stretch_l2=quality["l2"],
+        stretch_max=quality["max"],
+    )
 
 
 def reconstruction_error(

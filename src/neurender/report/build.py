@@ -1,9 +1,13 @@
-"""Self-contained HTML report: one section per method, our measurements beside the papers'.
+"""Self-contained HTML report: a summary first, then one section per method with its
+interactive viewers, figures, our tables (collapsed) and the papers' numbers.
 
-The report only shows what the pipeline measured (tidy CSV tables and PNG figures that
-stages wrote under ``results/<method>/``) and the published numbers in
-``paper_numbers.csv`` (each row cites its table or section). A method whose stage has not
-produced anything says so. Figures are embedded as data URIs so the file opens from disk.
+The report only shows what the pipeline measured (tidy CSV tables, PNG/GIF figures and
+viewer files that stages wrote under ``results/<method>/``) and the published numbers in
+``paper_numbers.csv`` (each row cites its table or section). The summary takes each
+method's headline rows (``headlines.csv``: our value beside the paper's) and its targets
+(``targets.csv`` of the method, met or missed). A method whose stage has not produced
+anything says so. Figures, viewer data and the viewers' code (three.js, bundled in
+``static/viewers.min.js``) are embedded, so the file opens from disk with no server.
 """
 
 from __future__ import annotations
@@ -12,6 +16,8 @@ import base64
 import dataclasses
 import datetime
 import html
+import json
+import math
 from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
@@ -19,9 +25,11 @@ from pathlib import Path
 import jinja2
 import pandas as pd
 
-from neurender import io
+from neurender import io, viewer_data
+from neurender.tables import TIDY_COLUMNS, lookup
 
-TIDY_COLUMNS = ("method", "dataset", "model", "split", "metric", "value")
+#: Tables longer than this many rows are shown collapsed.
+LONG_TABLE_ROWS = 12
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,10 +75,19 @@ SECTIONS = (
 )
 
 
+def _package_csv(name: str) -> pd.DataFrame:
+    with resources.files("neurender.report").joinpath(name).open() as f:
+        return pd.read_csv(f, keep_default_na=False)
+
+
 def paper_numbers() -> pd.DataFrame:
     """Published numbers: columns ``method, source, setting, model, metric, value, note``."""
-    with resources.files("neurender.report").joinpath("paper_numbers.csv").open() as f:
-        return pd.read_csv(f, keep_default_na=False)
+    return _package_csv("paper_numbers.csv")
+
+
+def headlines() -> pd.DataFrame:
+    """The summary's rows: which of our numbers stands beside which published one."""
+    return _package_csv("headlines.csv")
 
 
 def _method_of(path: Path) -> str | None:
@@ -79,6 +96,8 @@ def _method_of(path: Path) -> str | None:
 
 
 def _format_value(v: object) -> str:
+    if isinstance(v, bool):
+        return "met" if v else "<strong>missed</strong>"
     if isinstance(v, float):
         if v != v:  # NaN
             return "&ndash;"
@@ -93,22 +112,23 @@ def _table_html(frame: pd.DataFrame) -> str:
     return '<div class="scroll">' + table.replace("<td>nan</td>", "<td>&ndash;</td>") + "</div>"
 
 
-def _render_table(frame: pd.DataFrame) -> str:
-    """A tidy metric table becomes one pivoted table per split (one column per metric, so
-    timing rows do not widen the test table); anything else is shown as is."""
+def _render_table(frame: pd.DataFrame) -> tuple[str, int]:
+    """HTML of a table and its number of displayed rows. A tidy metric table becomes one
+    pivoted table per split (one column per metric); anything else is shown as is."""
     if not set(TIDY_COLUMNS) <= set(frame.columns):
-        return _table_html(frame.map(_format_value))
-    parts = []
-    for split, rows in frame.groupby("split", sort=False):
-        index = [c for c in rows.columns if c not in ("method", "split", "metric", "value")]
+        return _table_html(frame.map(_format_value)), len(frame)
+    parts, rows = [], 0
+    for split, part in frame.groupby("split", sort=False):
+        index = [c for c in part.columns if c not in ("method", "split", "metric", "value")]
         # Metrics with one value per frame are averaged; the CSV keeps every row.
-        wide = rows.pivot_table(
+        wide = part.pivot_table(
             index=index, columns="metric", values="value", aggfunc="mean", sort=False
         )
         wide = wide.dropna(axis=1, how="all").reset_index()
         wide.columns.name = None
-        parts.append(f"<h4>{split}</h4>" + _table_html(wide.map(_format_value)))
-    return "\n".join(parts)
+        parts.append(f"<h4>{html.escape(str(split))}</h4>" + _table_html(wide.map(_format_value)))
+        rows += len(wide)
+    return "\n".join(parts), rows
 
 
 def _embed_image(path: Path) -> str:
@@ -118,12 +138,96 @@ def _embed_image(path: Path) -> str:
     return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
+def _headline_rows(key: str, tables: dict[str, pd.DataFrame]) -> list[dict]:
+    published = paper_numbers()
+    rows = []
+    for h in headlines()[lambda t: t.method == key].itertuples():
+        table = tables.get(h.table)
+        ours = math.nan
+        if table is not None and set(TIDY_COLUMNS) <= set(table.columns):
+            ours = lookup(table, dataset=h.dataset, model=h.model, split=h.split, metric=h.metric)
+        paper = math.nan
+        if h.paper_source:
+            sel = published[
+                (published.method == key)
+                & (published.source == h.paper_source)
+                & (published.setting == h.paper_setting)
+                & (published.model == h.paper_model)
+                & (published.metric == h.paper_metric)
+            ]
+            paper = float(sel.value.iloc[0]) if len(sel) else math.nan
+        rows.append(
+            {
+                "label": h.label,
+                "ours": _format_value(ours),
+                "paper": _format_value(paper) if h.paper_source else "not reported",
+                "source": h.paper_source,
+            }
+        )
+    return rows
+
+
+def _targets(table: pd.DataFrame | None) -> dict:
+    if table is None or not {"check", "met"} <= set(table.columns):
+        return {"met": 0, "missed": []}
+    met = table["met"].astype(str).str.lower() == "true"
+    missed = [
+        f"{r.subject}: {r.check} (measured {_format_value(float(r.measured))})"
+        for r in table[~met].itertuples()
+    ]
+    return {"met": int(met.sum()), "missed": missed}
+
+
+def _viewer(path: Path, index: int) -> dict:
+    viewer = viewer_data.read(path)
+    return {
+        "id": f"viewer-{index}",
+        "kind": viewer["kind"],
+        "title": viewer["title"],
+        # The JSON sits in a <script> element, raw text: no "<" may open a tag inside it.
+        "json": json.dumps(viewer["data"], separators=(",", ":")).replace("<", "\\u003c"),
+    }
+
+
+def _section(section: Section, tables: list[Path], figures: list[Path], viewers: list[dict]):
+    frames = {t.stem: io.read_csv(t) for t in tables}
+    paper = paper_numbers()[lambda p: p.method == section.key].drop(columns="method")
+    rendered = []
+    for t in tables:
+        body, rows = _render_table(frames[t.stem])
+        rendered.append(
+            {
+                "caption": t.stem.replace("_", " "),
+                "path": str(t),
+                "href": Path(*t.parts[t.parts.index(section.key) :]).as_posix(),
+                "html": body,
+                "collapsed": rows > LONG_TABLE_ROWS and t.stem != "targets",
+            }
+        )
+    ran = bool(tables or figures)
+    return {
+        "key": section.key,
+        "title": section.title,
+        "citation": section.citation,
+        "link": section.link,
+        "ran": ran,
+        "data_only": ran and "metrics" not in frames,
+        "headlines": _headline_rows(section.key, frames),
+        "targets": _targets(frames.get("targets")),
+        "tables": rendered,
+        "figures": [{"caption": f.stem.replace("_", " "), "src": _embed_image(f)} for f in figures],
+        "viewers": viewers,
+        "paper": _table_html(paper.map(_format_value)) if len(paper) else "",
+    }
+
+
 def build_report(
     tables: Sequence[str | Path],
     figures: Sequence[str | Path],
     output: str | Path,
     title: str = "neurender report",
     run_info: dict[str, str] | None = None,
+    viewers: Sequence[str | Path] = (),
 ) -> None:
     """Write the HTML report.
 
@@ -131,50 +235,39 @@ def build_report(
         tables: CSV files under ``results/<method>/``; tidy metric tables (columns
             ``method, dataset, model, split, metric, value``) are pivoted to one column
             per metric, other tables (targets, timings) are shown as they are.
-        figures: PNG files under ``results/<method>/``; the file stem is the caption.
+        figures: PNG/GIF files under ``results/<method>/``; the file stem is the caption.
         output: the ``.html`` file.
         run_info: key -> value pairs shown at the top (config file, seed, ...).
+        viewers: viewer files (:mod:`neurender.viewer_data`) under ``results/<method>/``.
     """
-    published = paper_numbers()
     sections = []
-    for section in SECTIONS:
-        own_tables = [Path(t) for t in tables if _method_of(Path(t)) == section.key]
-        own_figures = [Path(f) for f in figures if _method_of(Path(f)) == section.key]
-        paper = published[published["method"] == section.key].drop(columns="method")
+    for index, section in enumerate(SECTIONS):
+        own_viewers = [
+            _viewer(Path(v), 100 * index + k)
+            for k, v in enumerate(p for p in viewers if _method_of(Path(p)) == section.key)
+        ]
         sections.append(
-            {
-                "key": section.key,
-                "title": section.title,
-                "citation": section.citation,
-                "link": section.link,
-                "ran": bool(own_tables or own_figures),
-                # A stage's model results always land in metrics.csv; without it only data exist.
-                "data_only": bool(own_tables or own_figures)
-                and not any(t.stem == "metrics" for t in own_tables),
-                "tables": [
-                    {
-                        "caption": t.stem.replace("_", " "),
-                        "path": str(t),
-                        "html": _render_table(io.read_csv(t)),
-                    }
-                    for t in own_tables
-                ],
-                "figures": [
-                    {"caption": f.stem.replace("_", " "), "src": _embed_image(f)}
-                    for f in own_figures
-                ],
-                "paper": _table_html(paper.map(_format_value)) if len(paper) else "",
-            }
+            _section(
+                section,
+                [Path(t) for t in tables if _method_of(Path(t)) == section.key],
+                [Path(f) for f in figures if _method_of(Path(f)) == section.key],
+                own_viewers,
+            )
         )
+    code = ""
+    if any(s["viewers"] for s in sections):
+        code = resources.files("neurender.report").joinpath("static/viewers.min.js").read_text()
+        code = code.replace("</script", "<\\/script")  # raw text inside <script>
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("neurender.report", "templates"),
         autoescape=jinja2.select_autoescape(default=True),
     )
-    html = env.get_template("report.html.j2").render(
+    page = env.get_template("report.html.j2").render(
         title=title,
         sections=sections,
         run_info=run_info or {},
+        viewer_code=code,
         generated=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
     with io.atomic_path(output) as tmp:
-        tmp.write_text(html, encoding="utf-8")
+        tmp.write_text(page, encoding="utf-8")

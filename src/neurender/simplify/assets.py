@@ -7,6 +7,10 @@
 * ``metaballs``: a blob creature of coloured metaballs centred at the origin, an implicit
   surface ``F = 1`` of :mod:`neurender.metaball`, rendered by its own ray marcher
   (:mod:`neurender.simplify.implicit`).
+* a user asset (``simplify.user_assets``): a mesh file with its material
+  (:mod:`neurender.simplify.user_mesh`), moved and scaled uniformly so that its bounding
+  box is centred at the origin with a half-diagonal of :data:`USER_RADIUS`, rendered by
+  Mitsuba with its own albedo (grey Lambertian where the file has none).
 
 An :class:`Asset` is what the stage needs of either: the detailed triangle surface that
 QEM and the classic baker start from, the reference renderer, the colour and normal the
@@ -28,12 +32,15 @@ from neurender import mitsuba_setup
 from neurender.metaball import Scene, field, surface_attributes
 from neurender.rng import stable_seed
 from neurender.shapes import head_mesh
-from neurender.simplify import CASES, implicit, mesh_ops, render
+from neurender.simplify import CASES, implicit, mesh_ops, render, user_mesh
 from neurender.simplify.bake import AttributeFn
 from neurender.simplify.views import View
 
 CREATURE_RADIUS = 1.7
 HEAD_ALBEDO = 0.8
+#: Half-diagonal of a user asset's bounding box in the stage's frame: within the default
+#: 30-degree view at distance 6.5 (half-height 1.74), like the head and the creature.
+USER_RADIUS = 1.6
 #: Camera azimuth and elevation ranges in degrees: an open relief is seen from its front
 #: half-space, a closed object from all around.
 VIEW_RANGES = {
@@ -99,6 +106,8 @@ class Asset:
         colour_fn, normal_fn: what the classic baker reads at a detailed-surface hit
             (None: no colour map; the detailed mesh's interpolated vertex normals).
         references: ``(mi, views, split, cfg) -> (N, W, W, 4)`` reference renders.
+        to_asset: ``(4, 4)`` from the stage's frame back to the asset file's (uniform
+            scale and translation; identity for the built-in cases).
     """
 
     vertices: np.ndarray
@@ -108,6 +117,7 @@ class Asset:
     colour_fn: AttributeFn | None
     normal_fn: AttributeFn | None
     references: Callable[[ModuleType, list[View], str, dict], np.ndarray]
+    to_asset: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(4))
 
 
 def head_asset(cfg: dict) -> Asset:
@@ -178,6 +188,71 @@ def metaball_asset(cfg: dict) -> Asset:
     )
 
 
+def triangle_budget(entry: dict, detailed: int, path: str) -> int:
+    """A user asset's triangle budget: ``entry["triangles"]``, else ``entry["ratio"]`` of
+    the ``detailed`` triangles; refused unless in ``[4, detailed)``."""
+    budget = entry["triangles"] or round(entry["ratio"] * detailed)
+    how = f"triangles = {budget}" if entry["triangles"] else f"ratio = {entry['ratio']}"
+    if not 4 <= budget < detailed:
+        raise user_mesh.AssetFileError(
+            f"{path}: {how} gives a budget of {budget} triangles; expected at least 4 and "
+            f"fewer than the asset's {detailed}"
+        )
+    return budget
+
+
+def normalisation(mesh: user_mesh.UserMesh) -> tuple[float, np.ndarray]:
+    """Scale and offset that put the bounding box of the used vertices at the origin with a
+    half-diagonal of :data:`USER_RADIUS` (``x_stage = (x - offset) * scale``)."""
+    used = mesh.vertices[np.unique(mesh.faces)]
+    lo, hi = used.min(0), used.max(0)
+    return USER_RADIUS / (0.5 * float(np.linalg.norm(hi - lo))), 0.5 * (lo + hi)
+
+
+def to_asset_matrix(scale: float, offset: np.ndarray) -> np.ndarray:
+    """The ``(4, 4)`` inverse of ``x_stage = (x - offset) * scale``."""
+    matrix = np.eye(4) / scale
+    matrix[:3, 3] = offset
+    matrix[3, 3] = 1.0
+    return matrix
+
+
+def user_asset(cfg: dict) -> Asset:
+    """A user's asset ``cfg["asset"]`` (``path``, ``ratio`` or ``triangles``, ``views``),
+    rendered by Mitsuba from its parts with their own albedo (``reference_spp`` for
+    training views, ``test_spp`` for held-out ones)."""
+    entry = cfg["asset"]
+    source = user_mesh.load(entry["path"])
+    scale, offset = normalisation(source)
+    mesh = source.transformed(scale, offset)
+    budget = triangle_budget(entry, len(mesh.faces), entry["path"])
+
+    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+        spp = cfg["test_spp"] if split == "test" else cfg["reference_spp"]
+        seed = cfg["seed"] + 7919 * (split == "test")
+        return render.render_views(
+            mi,
+            mesh.mitsuba_shapes(mi),
+            views,
+            cfg["resolution"],
+            spp,
+            cfg["intensity"],
+            seed,
+            f"{cfg['case']} {split}",
+        )
+
+    return Asset(
+        vertices=mesh.vertices,
+        faces=mesh.faces,
+        triangles=budget,
+        views=entry["views"],
+        colour_fn=lambda points, face, bary: mesh.albedo_at(face, bary),
+        normal_fn=None,
+        references=references,
+        to_asset=to_asset_matrix(scale, offset),
+    )
+
+
 def constant_albedo(case: str) -> float | None:
     """The grey albedo of a case whose material is uniform (the head); None where the
     colour varies and is baked into a texture."""
@@ -185,9 +260,12 @@ def constant_albedo(case: str) -> float | None:
 
 
 def load(case: str, cfg: dict) -> Asset:
-    """The asset of a use case (one of :data:`neurender.simplify.CASES`)."""
+    """The asset of a use case: one of :data:`neurender.simplify.CASES`, or a user asset
+    when ``cfg`` holds its entry under ``asset``."""
+    if "asset" in cfg:
+        return user_asset(cfg)
     if case == "head":
         return head_asset(cfg)
     if case == "metaballs":
         return metaball_asset(cfg)
-    raise KeyError(f"simplification case {case!r}: expected one of {CASES}")
+    raise KeyError(f"simplification case {case!r}: expected one of {CASES} or a user asset")

@@ -68,16 +68,19 @@ def scene_dict(
     alpha: bool = True,
     sample_border: bool = False,
 ) -> dict:
-    """Scene of one shape, a perspective sensor and a point light of radiant ``intensity``;
-    ``integrator`` defaults to Mitsuba's ``direct``, and ``sample_border`` lets samples fall
-    just outside the film (the projective integrator needs them for silhouettes)."""
-    return {
+    """Scene of one shape (or a list of shapes: keys ``shape``, ``shape_1``, ...), a
+    perspective sensor and a point light of radiant ``intensity``; ``integrator`` defaults
+    to Mitsuba's ``direct``, and ``sample_border`` lets samples fall just outside the film
+    (the projective integrator needs them for silhouettes)."""
+    scene = {
         "type": "scene",
         "integrator": integrator or {"type": "direct"},
         "sensor": camera.sensor(mi, view, width, spp, alpha, sample_border),
         "light": {"type": "point", "position": list(view.light), "intensity": intensity},
-        "shape": shape,
     }
+    for k, one in enumerate(shape if isinstance(shape, list) else [shape]):
+        scene["shape" if k == 0 else f"shape_{k}"] = one
+    return scene
 
 
 def set_view(mi: ModuleType, params, view: View) -> None:
@@ -97,7 +100,8 @@ def render_views(
     desc: str = "render",
     integrator: dict | None = None,
 ) -> np.ndarray:
-    """Render ``shape`` from every view: ``(N, W, W, 4)`` float32 RGBA (alpha = coverage)."""
+    """Render ``shape`` (one or a list) from every view: ``(N, W, W, 4)`` float32 RGBA
+    (alpha = coverage)."""
     scene = mi.load_dict(scene_dict(mi, shape, views[0], width, spp, intensity, integrator))
     params = mi.traverse(scene)
     images = []
