@@ -89,7 +89,8 @@ def _move(driver, control) -> None:
         """const c = arguments[0];
         if (c.type === 'range') { c.value = (Number(c.value) === Number(c.max)) ? c.min : c.max;
           c.dispatchEvent(new Event('input')); }
-        else if (c.type === 'checkbox') { c.checked = !c.checked; c.dispatchEvent(new Event('change')); }
+        else if (c.type === 'checkbox') {
+          c.checked = !c.checked; c.dispatchEvent(new Event('change')); }
         else { c.selectedIndex = (c.selectedIndex + 1) % c.options.length;
           c.dispatchEvent(new Event('change')); }""",
         control,
@@ -152,8 +153,9 @@ def main(argv: list[str] | None = None) -> int:
     for c in checks:
         good = c.drawn and all(c.controls.values())
         ok &= good
+        status = "ok  " if good else "FAIL"
         print(
-            f"{'ok  ' if good else 'FAIL'} {c.id} ({c.kind}): drawn={c.drawn} controls={c.controls} -> {c.screenshot}"
+            f"{status} {c.id} ({c.kind}): drawn={c.drawn} controls={c.controls} -> {c.screenshot}"
         )
     for e in errors:
         print(f"console error: {e}")
