@@ -122,3 +122,26 @@ def test_bad_inputs_raise():
         sh.stratified_sphere_directions(300, np.random.default_rng(0))
     with pytest.raises(ValueError, match="n_bands"):
         sh.eval_sh(np.zeros((1, 3)), 6)
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.3, math.pi / 2, 2.0])
+def test_rotation_about_y_is_orthogonal_and_turns_a_probe(angle):
+    rot = sh.rotation_about_y(angle, 4)
+    np.testing.assert_allclose(rot @ rot.T, np.eye(16), atol=1e-12)
+    # A band-limited function turned about +y by a whole number of lat-long columns: the
+    # rotated coefficients equal the projection of the rolled map (a right-handed turn
+    # about +y takes -z towards -x, i.e. to smaller u: rolling by +shift turns by -angle).
+    h, w = 64, 128
+    coeffs = np.random.default_rng(4).normal(size=(16, 3))
+    image = sh.reconstruct_latlong(coeffs, h, w)
+    shift = round(angle / (2 * math.pi) * w)
+    turned = sh.project_latlong(np.roll(image, shift, axis=1), 4)
+    np.testing.assert_allclose(
+        sh.rotation_about_y(-2 * math.pi * shift / w, 4) @ coeffs, turned, atol=2e-3
+    )
+
+
+def test_rotation_about_y_keeps_the_constant_and_composes():
+    a, b = sh.rotation_about_y(0.4, 3), sh.rotation_about_y(0.7, 3)
+    np.testing.assert_allclose(a @ b, sh.rotation_about_y(1.1, 3), atol=1e-12)
+    np.testing.assert_allclose(a[0], np.eye(9)[0], atol=1e-12)

@@ -223,3 +223,24 @@ def rotate_zonal(zonal: np.ndarray, axis: np.ndarray) -> np.ndarray:
     per_band = [math.sqrt(4.0 * math.pi / (2 * b + 1)) * zonal[b] for b in range(n_bands)]
     scale = np.concatenate([np.full(2 * b + 1, s) for b, s in enumerate(per_band)])
     return eval_sh(np.asarray(axis, dtype=np.float64), n_bands) * scale
+
+
+def rotation_about_y(angle: float, n_bands: int) -> np.ndarray:
+    """The ``(K, K)`` matrix taking coefficients of a function to those of the function
+    turned by ``angle`` radians about +y (right-handed): ``c' = R c`` with
+    ``f'(w) = f(R_y(-angle) w)``.
+
+    Computed by quadrature of ``R_kj = integral y_k(w) y_j(R_y(-angle) w) dw`` with
+    Gauss-Legendre nodes in ``cos(theta)`` and uniform ``phi``, which integrates products
+    of two band-limited SH exactly, so the matrix is exact to rounding.
+    """
+    check_bands(n_bands)
+    nodes, weights = np.polynomial.legendre.leggauss(2 * n_bands)
+    phis = 2 * math.pi * (np.arange(4 * n_bands) + 0.5) / (4 * n_bands)
+    z, phi = np.meshgrid(nodes, phis, indexing="ij")
+    r = np.sqrt(1 - z**2)
+    dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1).reshape(-1, 3)
+    w = (np.repeat(weights, len(phis)) * 2 * math.pi / len(phis))[:, None]
+    c, s = math.cos(-angle), math.sin(-angle)
+    turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return (eval_sh(dirs, n_bands) * w).T @ eval_sh(dirs @ turn.T, n_bands)

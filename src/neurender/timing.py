@@ -6,6 +6,7 @@ uncounted warm-up calls; on a GPU the clock stops only when the queued kernels a
 
 from __future__ import annotations
 
+import platform
 import time
 from collections.abc import Callable
 from typing import Any
@@ -30,3 +31,16 @@ def timed(
         if k >= warmup:
             times.append(time.perf_counter() - start)
     return out, float(np.median(times))
+
+
+def hardware(threads: int) -> str:
+    """What a timing ran on: the GPU's name on CUDA, else the CPU's model and threads."""
+    if torch.cuda.is_available():
+        return f"{torch.cuda.get_device_name()} (CUDA)"
+    model = platform.processor() or "CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next(line.split(":", 1)[1].strip() for line in f if "model name" in line)
+    except (OSError, StopIteration):
+        pass
+    return f"{model}, {threads} thread{'s' * (threads != 1)}"

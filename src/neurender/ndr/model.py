@@ -46,7 +46,7 @@ SHADING_INPUT = "shading_input"
 
 def inverse_reinhard(t: torch.Tensor) -> torch.Tensor:
     """Tone-mapped ``t`` in [0, 1) back to HDR (clamped away from the pole at 1)."""
-    t = t.clamp(0, 1 - EPS)
+    t = t.clamp(0.0, 1.0 - EPS)
     return t / (1 - t)
 
 

@@ -29,6 +29,7 @@ from torch import nn
 from torch.nn.utils.fusion import fuse_conv_bn_eval
 
 from neurender.io import atomic_path
+from neurender.timing import timed
 
 log = logging.getLogger(__name__)
 
@@ -74,62 +75,83 @@ def _quiet_exporter() -> Iterator[io.StringIO]:
         registry.setLevel(level)
 
 
-def export_onnx(model: nn.Module, example: torch.Tensor, path: str | Path, atol: float = 1e-4):
+def export_onnx(
+    model: nn.Module,
+    example: torch.Tensor | tuple[torch.Tensor, ...],
+    path: str | Path,
+    atol: float = 1e-4,
+    input_names: tuple[str, ...] = ("x",),
+) -> float:
     """Write an eval-mode CPU ``model`` as an ONNX graph with a dynamic batch axis.
 
-    The graph maps ``x`` ``(B, C, H, W)`` float32 to the model's output; C, H and W are
-    fixed to the example's. Before the file is written, ONNX Runtime runs it on
-    ``example`` and a ``ValueError`` is raised if any output differs from PyTorch's by
-    more than ``atol``.
+    The graph maps the inputs (``x`` ``(B, C, H, W)`` float32 by default; several named
+    by ``input_names``, each with the batch first) to the model's output ``y``; all other
+    dimensions are fixed to the example's. Before the file is written, ONNX Runtime runs
+    it on ``example`` and a ``ValueError`` is raised if any output differs from PyTorch's
+    by more than ``atol``; the difference is stored in the file's metadata
+    (``neurender.max_abs_diff_vs_pytorch``) and returned.
 
     Args:
         model: the network (``torch.export``-able; on the CPU).
-        example: ``(B, C, H, W)`` inputs with ``B >= 2`` (a batch of one would fix B).
+        example: the inputs, each with a batch of ``B >= 2`` (a batch of one would fix B).
         path: the ``.onnx`` file.
     """
-    if example.ndim != 4 or example.shape[0] < 2:
-        raise ValueError(f"example {tuple(example.shape)}: expected (B, C, H, W) with B >= 2")
+    examples = (example,) if isinstance(example, torch.Tensor) else tuple(example)
+    if len(examples) != len(input_names):
+        raise ValueError(f"{len(examples)} example inputs for names {input_names}")
+    if any(x.shape[0] < 2 for x in examples):
+        shapes = [tuple(x.shape) for x in examples]
+        raise ValueError(f"example {shapes}: expected inputs with a batch of B >= 2")
     model = model.eval()
     with torch.inference_mode():
-        expected = model(example).numpy()
+        expected = model(*examples).numpy()
     batch = torch.export.Dim("batch")
     with _quiet_exporter() as chatter, atomic_path(path) as tmp:
         torch.onnx.export(
             model,
-            (example,),
+            examples,
             tmp,
             dynamo=True,
-            input_names=["x"],
+            input_names=list(input_names),
             output_names=["y"],
-            dynamic_shapes={"x": {0: batch}},
+            dynamic_shapes={name: {0: batch} for name in input_names},
             external_data=False,  # one self-contained file (external data would follow tmp)
         )
         log.debug("torch.onnx: %s", chatter.getvalue())
-        _strip_debug_metadata(tmp)
-        got = OnnxNetwork(tmp)(example.numpy())
+        got = OnnxNetwork(tmp)(*(x.numpy() for x in examples))
         error = float(np.abs(got - expected).max())
         if not error <= atol:
             raise ValueError(
                 f"{path}: ONNX Runtime differs from PyTorch by {error:.3g} (> atol {atol})"
             )
+        _finish(tmp, {"neurender.max_abs_diff_vs_pytorch": f"{error:.3g}"})
     log.info("exported %s (max |ONNX - PyTorch| = %.2g)", path, error)
+    return error
 
 
-def _strip_debug_metadata(path: Path) -> None:
+def onnx_metadata(path: str | Path) -> dict[str, str]:
+    """The model-level metadata of an ONNX file (e.g. ``neurender.max_abs_diff_vs_pytorch``)."""
+    return {p.key: p.value for p in onnx.load(str(path), load_external_data=False).metadata_props}
+
+
+def _finish(path: Path, metadata: dict[str, str]) -> None:
     """Drop the exporter's per-node debug records (source file paths, line numbers, FX
-    node text): a shipped network then does not carry the build machine's paths, and the
-    same weights give the same file from any checkout."""
+    node text: a shipped network then does not carry the build machine's paths, and the
+    same weights give the same file from any checkout) and add our model metadata."""
     model = onnx.load(str(path))
     for graph in [model.graph, *(f for f in model.functions)]:
         for node in graph.node:
             del node.metadata_props[:]
+    for key, value in metadata.items():
+        model.metadata_props.add(key=key, value=value)
     onnx.save(model, str(path))
 
 
 class OnnxNetwork:
     """An ONNX graph run by ONNX Runtime on the CPU.
 
-    Calling it maps a float32 array ``(B, C, H, W)`` to the graph's first output.
+    Calling it with float32 arrays (one per graph input, in order, e.g. ``(B, C, H, W)``)
+    gives the graph's first output.
     """
 
     def __init__(self, path: str | Path, threads: int = 1):
@@ -141,7 +163,29 @@ class OnnxNetwork:
         self.session = onnxruntime.InferenceSession(
             str(path), options, providers=["CPUExecutionProvider"]
         )
-        self.input = self.session.get_inputs()[0].name
+        self.inputs = [i.name for i in self.session.get_inputs()]
 
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        return self.session.run(None, {self.input: np.ascontiguousarray(x, np.float32)})[0]
+    def __call__(self, *arrays: np.ndarray) -> np.ndarray:
+        feed = {
+            n: np.ascontiguousarray(a, np.float32) for n, a in zip(self.inputs, arrays, strict=True)
+        }
+        return self.session.run(None, feed)[0]
+
+
+def engine_milliseconds(
+    module: nn.Module, onnx_file: str | Path, inputs: tuple[torch.Tensor, ...], threads: int
+) -> dict[str, float]:
+    """Median milliseconds of one call (the batch in ``inputs``, usually one) by PyTorch
+    (eval mode, no autograd) and by ONNX Runtime on the CPU with ``threads`` threads."""
+    module = module.eval()
+    session = OnnxNetwork(onnx_file, threads)
+    arrays = [x.numpy() for x in inputs]
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)  # the same threads as ONNX Runtime's
+    try:
+        with torch.inference_mode():
+            _, torch_s = timed(module, *inputs, repeats=21, warmup=2)
+    finally:
+        torch.set_num_threads(before)
+    _, onnx_s = timed(session, *arrays, repeats=21, warmup=2)
+    return {"pytorch": 1000 * torch_s, "onnxruntime": 1000 * onnx_s}

@@ -1,0 +1,66 @@
+"""Metaball generators as the files a renderer ships: ONNX graphs from the network's
+inputs in [0, 1] (:func:`neurender.metaballs.model.network_inputs`) to the G-buffer stack
+``(B, 7, W, W)`` in [0, 1] (:mod:`neurender.metaballs.gbuffers`), the [-1, 1] mapping of
+pix2pix inside.
+
+A GAN-trained generator normalises with each image's own statistics
+(:class:`neurender.metaballs.renderer.MetaballRenderer`): for a batch of one image that
+is instance normalisation with the batch norm's scale and shift, which is what its graph
+uses, so a batch of several images gives each image's own result.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from neurender.nn.inference import engine_milliseconds, export_onnx
+from neurender.nn.unet import count_parameters
+
+
+def per_image_normalisation(model: nn.Module) -> nn.Module:
+    """A copy of ``model`` with every batch norm replaced by instance normalisation with
+    the same scale, shift and epsilon (batch statistics of one image)."""
+    model = copy.deepcopy(model)
+    for parent in list(model.modules()):
+        for name, child in parent.named_children():
+            if isinstance(child, nn.BatchNorm2d):
+                norm = nn.InstanceNorm2d(child.num_features, eps=child.eps, affine=True)
+                norm.weight.data.copy_(child.weight.data)
+                norm.bias.data.copy_(child.bias.data)
+                setattr(parent, name, norm)
+    return model
+
+
+class GeneratorGraph(nn.Module):
+    """``(B, C, W, W)`` inputs in [0, 1] -> ``(B, 7, W, W)`` G-buffers in [0, 1]."""
+
+    def __init__(self, generator: nn.Module, image_statistics: bool):
+        super().__init__()
+        self.generator = (
+            per_image_normalisation(generator) if image_statistics else generator
+        ).eval()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return ((self.generator(x * 2 - 1) + 1) / 2).clamp(0, 1)
+
+
+def export_generator(
+    generator: nn.Module, image_statistics: bool, inputs: torch.Tensor, onnx_out: str, threads: int
+) -> dict[str, float]:
+    """Export one trained generator (checked on ``inputs`` ``(B >= 2, C, W, W)``) and time
+    both engines on one image: ``parameters``, ``onnx_bytes``, ``max_abs_diff_vs_pytorch``,
+    ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch``."""
+    graph = GeneratorGraph(generator.cpu(), image_statistics)
+    error = export_onnx(graph, inputs, onnx_out, atol=1e-3)
+    ms = engine_milliseconds(graph, onnx_out, (inputs[:1],), threads)
+    return {
+        "parameters": count_parameters(generator),
+        "onnx_bytes": Path(onnx_out).stat().st_size,
+        "max_abs_diff_vs_pytorch": error,
+        "ms_per_frame_onnxruntime": ms["onnxruntime"],
+        "ms_per_frame_pytorch": ms["pytorch"],
+    }

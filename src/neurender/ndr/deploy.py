@@ -1,0 +1,67 @@
+"""NDR networks as the files a renderer ships: each trained variant with its tone mapping,
+light encoding and image composition in one ONNX graph.
+
+Graph inputs: ``buffers`` ``(B, C, H, W)`` float32, the raw (linear, HDR where they are)
+buffer groups of :func:`graph_groups` stacked in that order, and ``light`` ``(B, 75)`` the
+map's SH features (:func:`neurender.ndr.buffers.light_features`). Output: ``I_R``
+``(B, 3, H, W)`` linear HDR radiance. The graph is exactly :class:`NDRModel`'s forward.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from neurender.ndr.buffers import channel_count
+from neurender.ndr.model import NDRModel
+from neurender.nn.inference import engine_milliseconds, export_onnx
+from neurender.nn.unet import count_parameters
+
+
+def graph_groups(model: NDRModel) -> tuple[str, ...]:
+    """The buffer groups a variant's graph takes: its network inputs, then what its prior
+    and the composition of ``I_R`` need (coarse shading, albedos)."""
+    extra = ("S_D", "S_S") if model.residual else ()
+    groups = tuple(model.variant.inputs)
+    return groups + tuple(g for g in (*extra, "A_D", "A_S") if g not in groups)
+
+
+class NDRGraph(nn.Module):
+    """``(buffers, light) -> I_R`` for one trained variant (see the module docstring)."""
+
+    def __init__(self, model: NDRModel):
+        super().__init__()
+        self.model = model.eval()
+        self.groups = graph_groups(model)
+        self.counts = [channel_count(g) for g in self.groups]
+
+    def forward(self, buffers: torch.Tensor, light: torch.Tensor) -> torch.Tensor:
+        batch = dict(zip(self.groups, torch.split(buffers, self.counts, 1), strict=True))
+        batch["light"] = light
+        return self.model(batch)["I_R"]
+
+
+def graph_inputs(model: NDRModel, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, ...]:
+    """A dataset batch as the graph's ``(buffers, light)``."""
+    return torch.cat([batch[g] for g in graph_groups(model)], 1), batch["light"]
+
+
+def export_variant(
+    model: NDRModel, batch: dict[str, torch.Tensor], onnx_out: str, threads: int
+) -> dict[str, float]:
+    """Export one trained variant (checked on ``batch``, at least two samples) and time
+    both engines on its first sample: ``parameters``, ``onnx_bytes``,
+    ``max_abs_diff_vs_pytorch``, ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch``."""
+    graph = NDRGraph(model.cpu())
+    inputs = graph_inputs(model, batch)
+    error = export_onnx(graph, inputs, onnx_out, atol=1e-3, input_names=("buffers", "light"))
+    ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in inputs), threads)
+    return {
+        "parameters": count_parameters(model),
+        "onnx_bytes": Path(onnx_out).stat().st_size,
+        "max_abs_diff_vs_pytorch": error,
+        "ms_per_frame_onnxruntime": ms["onnxruntime"],
+        "ms_per_frame_pytorch": ms["pytorch"],
+    }
