@@ -62,7 +62,7 @@ def stage(rule: str) -> str:
     return STAGES.get(rule.split("_")[0], "other")
 
 
-def _unet_width(widths: list[int], side: int) -> float:
+def unet_work(widths: list[int]) -> float:
     """Multiply-adds per output pixel of a U-Net with ``widths`` per level, relative:
     sum over levels of ``width^2`` times the level's share of pixels."""
     return sum(w * w / 4**level for level, w in enumerate(widths)) / 1e3
@@ -89,7 +89,7 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     if rule == "prt_train":
         k = prt["n_bands"] ** 2 * (3 if wildcards.get("material") == "glossy" else 1)
         pixels = (frames["train"] + frames["val"]) * n * n
-        return pm["epochs"] * pixels * _unet_width(pm["widths"], n) / 1e6, pixels * (6 + k) / 1e6
+        return pm["epochs"] * pixels * unet_work(pm["widths"]) / 1e6, pixels * (6 + k) / 1e6
     if rule == "prt_evaluate":
         rays = frames["test"] * n * n * prt["directions"] / 2
         rays += (
@@ -117,7 +117,7 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         count = (ndr["diffuse_samples"] if diffuse else ndr["samples"])["train"]
         epochs = nm["epochs"] if variant in ("ndr", "ndr_diffuse") else nm["baseline_epochs"]
         pixels = count * w * w
-        return epochs * pixels * _unet_width(nm["widths"], w) / 1e6, pixels * 30 * 4 / 1e6
+        return epochs * pixels * unet_work(nm["widths"]) / 1e6, pixels * 30 * 4 / 1e6
     if rule in ("ndr_evaluate", "ndr_relight"):
         tests = ndr["samples"]["test"] + ndr["diffuse_samples"]["test"]
         return tests * w * w * len(nm["variants"]) / 1e6, tests * w * w * 40 / 1e6

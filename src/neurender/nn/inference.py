@@ -114,7 +114,7 @@ def export_onnx(
             dynamo=True,
             input_names=list(input_names),
             output_names=["y"],
-            dynamic_shapes={name: {0: batch} for name in input_names},
+            dynamic_shapes=tuple({0: batch} for _ in input_names),
             external_data=False,  # one self-contained file (external data would follow tmp)
         )
         log.debug("torch.onnx: %s", chatter.getvalue())
