@@ -22,7 +22,7 @@ from neurender import io
 #: Names of measurements that depend on the machine's speed at the moment of the run.
 TIMING = re.compile(
     r"(^|_)(s|ms|seconds?|minutes|rays_per_s|speedup|time|fraction_of_embree)(_|$)"
-    r"|_ms_|per_s|_seconds|seconds_|speedup|minutes|timing|time_vs",
+    r"|_ms_|per_s|_seconds|seconds_|speedup|minutes|timing|time_vs|speed ratio",
 )
 
 

@@ -12,7 +12,9 @@ from pathlib import Path
 from typing import Any
 
 from neurender.lights import BUILTIN_PROBES
-from neurender.prt import OBJECTS
+from neurender.metaballs.user_scenes import read_user_scenes
+from neurender.ndr import assets as ndr_assets
+from neurender.prt import OBJECTS, RESERVED, user_sequence_problems
 
 
 class ConfigError(ValueError):
@@ -61,7 +63,17 @@ def _names(names: list, builtins: tuple, user: Mapping, name: str) -> Iterator[s
 
 def _prt_problems(config: Mapping) -> Iterator[str]:
     prt, model = config["prt"], config["prt_model"]
-    yield from _names(prt["objects"], OBJECTS, prt["user_meshes"], "prt.objects")
+    meshes, sequences = prt["user_meshes"], prt["user_sequences"]
+    yield from _names(prt["objects"], OBJECTS, {**meshes, **sequences}, "prt.objects")
+    for name in sorted(set(meshes) & set(sequences)):
+        yield f"prt user object {name!r} is both in prt.user_meshes and in prt.user_sequences"
+    for name in sorted((set(meshes) | set(sequences)) & set(RESERVED)):
+        yield (
+            f"prt user object {name!r}: the name of a built-in dataset; expected another name "
+            f"(reserved: {', '.join(RESERVED)})"
+        )
+    for name, entry in sequences.items():
+        yield from user_sequence_problems(name, entry, made_by_the_workflow)
     yield from _names(prt["probes"], BUILTIN_PROBES, prt["user_probes"], "prt.probes")
     if prt["light"] not in prt["probes"]:
         yield f"prt.light = {prt['light']!r}: expected one of prt.probes {prt['probes']}"
@@ -113,6 +125,21 @@ def _ndr_problems(config: Mapping) -> Iterator[str]:
     folder = ndr["user_probes_dir"]
     if folder and not made_by_the_workflow(folder) and not any(Path(folder).glob("*.exr")):
         yield f"ndr.user_probes_dir = {folder!r}: expected a folder holding *.exr lat-long maps"
+    for name, path in ndr["user_objects"].items():
+        if made_by_the_workflow(path):
+            continue
+        if Path(path).suffix.lower() not in ndr_assets.MESH_SUFFIXES:
+            yield (
+                f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
+                f"({', '.join(ndr_assets.MESH_SUFFIXES)})"
+            )
+        elif not Path(path).is_file():
+            yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
+        else:
+            for missing in ndr_assets.missing_files(path):
+                yield (
+                    f"ndr.user_objects entry {name!r}: {path} names {missing}, which does not exist"
+                )
 
 
 def _metaballs_problems(config: Mapping) -> Iterator[str]:
@@ -121,9 +148,18 @@ def _metaballs_problems(config: Mapping) -> Iterator[str]:
     yield from _power_of_two_at_least(
         config["metaballs"]["width"], 32, "metaballs.width", "the pix2pix U-Net halves it to 1"
     )
+    scenes = config["metaballs"]["user_scenes"]
+    if scenes and not made_by_the_workflow(scenes):
+        try:
+            read_user_scenes(scenes)
+        except (OSError, ValueError) as err:
+            yield f"metaballs.user_scenes = {scenes!r}: {err}"
 
 
 def _simplify_problems(config: Mapping) -> Iterator[str]:
+    from neurender.simplify import CASES
+    from neurender.simplify.asset_files import SUFFIXES, missing
+
     simplify = config["simplify"]
     detail = 2 * simplify["head_vertices"]
     if "head" in simplify["cases"] and simplify["head_triangles"] >= detail:
@@ -131,6 +167,19 @@ def _simplify_problems(config: Mapping) -> Iterator[str]:
             f"simplify.head_triangles = {simplify['head_triangles']}: expected fewer than the "
             f"detailed head's about {detail} triangles (2 x simplify.head_vertices)"
         )
+    for name, entry in simplify["user_assets"].items():
+        key = f"simplify.user_assets.{name}"
+        path = entry["path"]
+        if name in CASES:
+            yield f"{key}: the name of a built-in case ({', '.join(CASES)}); pick another"
+        if Path(path).suffix.lower() not in SUFFIXES:
+            yield f"{key}.path = {path!r}: expected a mesh file ({', '.join(SUFFIXES)})"
+        elif made_by_the_workflow(path):
+            continue
+        elif not Path(path).is_file():
+            yield f"{key}.path = {path!r}: file does not exist"
+        else:
+            yield from (f"{key}.path = {path!r}: {problem}" for problem in missing(path))
 
 
 def problems(config: Mapping[str, Any]) -> list[str]:

@@ -28,3 +28,9 @@ def srgb(x: np.ndarray) -> np.ndarray:
     """The sRGB transfer function of ``clip(x, 0, 1)``."""
     x = np.clip(x, 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def linear_from_srgb(x: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`srgb`: encoded values in [0, 1] to linear."""
+    x = np.clip(x, 0.0, 1.0)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from neurender.prt import objects
+from neurender import io
+from neurender.prt import jobs, objects
 from neurender.shapes import BLENDSHAPES
 
 
@@ -35,20 +36,30 @@ def test_user_mesh_disk_is_accepted(tmp_path):
     assert len(loaded.faces) == len(mesh.faces)
 
 
+def _geometry_image(tmp_path, path):
+    params = {"object": "mine", "resolution": 8, "source_vertices": 300, "seed": 0}
+    out = {"gim": tmp_path / "gim.npz", "stats": tmp_path / "gim.csv"}
+    jobs.prt_geometry_image({"source": str(path)}, out, params, 1)
+    return io.read_csv(out["stats"]).set_index("metric")["value"]
+
+
 @pytest.mark.parametrize(
-    "make, message",
-    [
-        (lambda: trimesh.creation.icosphere(1), "0 boundary loops"),
-        (lambda: _two_disks(), "2 connected components"),
-        (lambda: _torus_with_a_hole(), "V - E \\+ F = .* = -1, so genus 1"),
-    ],
+    "make, genus",
+    [(lambda: trimesh.creation.icosphere(1), 0), (lambda: _torus_with_a_hole(), 1)],
 )
-def test_user_mesh_errors_name_file_and_finding(tmp_path, make, message):
-    path = tmp_path / "bad.obj"
+def test_closed_and_higher_genus_user_meshes_are_cut_to_a_disk(tmp_path, make, genus):
+    path = tmp_path / "mine.obj"
     make().export(path)
-    with pytest.raises(ValueError, match=message) as info:
-        objects.load_user_mesh(path)
-    assert "bad.obj" in str(info.value)
+    stats = _geometry_image(tmp_path, path)
+    assert stats["flipped_triangles"] == 0 and stats["genus"] == genus
+    assert stats["seam_length"] > 0
+
+
+def test_user_mesh_with_several_components_is_refused_naming_the_file(tmp_path):
+    path = tmp_path / "bad.obj"
+    _two_disks().export(path)
+    with pytest.raises(ValueError, match=r"bad\.obj: 2 connected components"):
+        _geometry_image(tmp_path, path)
 
 
 def test_user_mesh_format_and_missing_file(tmp_path):

@@ -34,3 +34,22 @@ def user_files(path):
     if glob.has_magic(path):
         return sorted(glob.glob(path))
     return [path]
+
+
+def scheduler_resources(rule_name):
+    """A job's ``resources``: ``mem_mb`` and ``runtime`` (minutes) from the cost model
+    (:mod:`neurender.costs`, estimate times a safety factor, doubled on each retry) and
+    ``gpu`` (config key ``gpus``) for the rules that use a GPU. Local runs schedule on
+    them too; on a cluster they become the job's ``--mem``, ``--time`` and ``--gpus``.
+    """
+    import neurender.costs
+
+    def estimate(wildcards):
+        return neurender.costs.estimate(rule_name, config, dict(wildcards))
+
+    gpus = config["gpus"] if rule_name in neurender.costs.GPU_RULES else 0
+    return {
+        "mem_mb": lambda wildcards, attempt: estimate(wildcards).mem_limit_mb * attempt,
+        "runtime": lambda wildcards, attempt: estimate(wildcards).runtime_min * attempt,
+        "gpu": gpus,
+    }

@@ -169,3 +169,27 @@ rule metaballs_targets:
         cfg=section_keys("metaballs", ("width",)),
     script:
         "../scripts/metaballs_targets.py"
+
+
+rule metaballs_user_scenes:
+    input:
+        scenes=metaballs_user_scenes_file(),
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+    output:
+        table="results/metaballs/user_scenes.csv",
+        figure=report(
+            "results/metaballs/figures/your_scenes.png",
+            category="Metaballs",
+            labels={"figure": "your scenes"},
+        ),
+    log:
+        "results/logs/metaballs_user_scenes/metaballs_user_scenes.log",
+    benchmark:
+        "results/benchmarks/metaballs_user_scenes/metaballs_user_scenes.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=metaballs_evaluate_params(),
+    script:
+        "../scripts/metaballs_user_scenes.py"

@@ -144,3 +144,28 @@ rule ndr_relight:
         cfg=ndr_relight_params,
     script:
         "../scripts/ndr_relight.py"
+
+
+rule ndr_user_objects:
+    input:
+        unpack(ndr_user_object_files),
+        checkpoint="results/ndr/models/ndr.pt",
+    output:
+        table="results/ndr/user_objects.csv",
+        maps="results/ndr/user_objects_maps.csv",
+        figure=report(
+            "results/ndr/figures/your_objects.png",
+            category="NDR",
+            labels={"figure": "your objects"},
+        ),
+    log:
+        "results/logs/ndr_user_objects/ndr_user_objects.log",
+    benchmark:
+        "results/benchmarks/ndr_user_objects/ndr_user_objects.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    params:
+        cfg=ndr_user_objects_params(),
+    script:
+        "../scripts/ndr_user_objects.py"

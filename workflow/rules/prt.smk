@@ -45,7 +45,7 @@ rule prt_geometry_image:
 
 rule prt_sequence:
     input:
-        gim=prt_sequence_gim,
+        unpack(prt_sequence_files),
     output:
         seq="results/prt/{object}/sequence.npz",
     log:

@@ -1,9 +1,12 @@
 # Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3:
-# reference renders, QEM and classic bakes, optimisation, held-out evaluation.
+# reference renders, QEM and classic bakes, optimisation (and its GLB/OBJ export),
+# held-out evaluation; built-in cases and the user's assets (simplify.user_assets).
 # Helpers (params and input functions): workflow/rules/helpers/simplification.smk.
 
 
 rule simplify_prepare:
+    input:
+        unpack(simplify_prepare_inputs),
     output:
         train_images="results/simplification/{case}/reference_train.exr",
         test_images="results/simplification/{case}/reference_test.exr",
@@ -28,14 +31,17 @@ rule simplify_prepare:
 
 rule simplify_optimise:
     input:
+        unpack(simplify_optimise_inputs),
         lowpoly="results/simplification/{case}/lowpoly.npz",
         train_images="results/simplification/{case}/reference_train.exr",
         train_views="results/simplification/{case}/views_train.csv",
     output:
         mesh="results/simplification/{case}/optimised.npz",
+        glb="results/simplification/{case}/optimised.glb",
         obj="results/simplification/{case}/optimised.obj",
         mtl="results/simplification/{case}/optimised.mtl",
         texture="results/simplification/{case}/optimised_texture.png",
+        normal_texture="results/simplification/{case}/optimised_texture_normal.png",
         normal="results/simplification/{case}/optimised_normal.png",
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",

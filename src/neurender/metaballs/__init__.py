@@ -3,8 +3,9 @@
 Pipeline: :mod:`scenes` (camera, random balls) -> :mod:`raymarch` (exact targets) and
 :mod:`inputs` (circles, sphere impostors) -> :mod:`ab` (AB images) -> :mod:`dataset`,
 :mod:`model`, :mod:`training` -> :mod:`renderer` (inference) -> :mod:`evaluate`,
-:mod:`demo`, :mod:`speed`, :mod:`summary`, :mod:`figures`. The G-buffer layout and the
-silhouette tests are :mod:`gbuffers`; each rule's job is in :mod:`jobs`.
+:mod:`user_scenes` (your CSV of balls), :mod:`demo`, :mod:`speed`, :mod:`summary`,
+:mod:`figures`. The G-buffer layout and the silhouette tests are :mod:`gbuffers`; each
+rule's job is in :mod:`jobs`.
 
 This module names what the workflow's rules refer to; it imports nothing heavy, so the
 Snakefile can read it when it builds the DAG.

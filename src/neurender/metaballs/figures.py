@@ -1,6 +1,6 @@
 """Figures of the metaballs stage: example AB images, the held-out comparison (thesis Fig.
-7.2), accuracy against scene complexity, the demo (GIF and strip), temporal stability and
-frame time against the number of balls.
+7.2), accuracy against scene complexity, the demo (GIF and strip), temporal stability,
+frame time against the number of balls and the user's scenes.
 
 Images are tensors ``(C, W, W)`` in [0, 1] (G-buffer stacks as
 :mod:`neurender.metaballs.gbuffers`) shown as they are.
@@ -15,7 +15,7 @@ import pandas as pd
 import torch
 
 from neurender import io
-from neurender.metaballs import ab, gbuffers
+from neurender.metaballs import ab, evaluate, gbuffers
 from neurender.metaballs.demo import RAY_MARCHING
 from neurender.metaballs.evaluate import Showcase
 from neurender.metaballs.speed import RAY_MARCHER
@@ -146,5 +146,32 @@ def frame_time_figure(balls: pd.DataFrame, path: str) -> None:
     ax.set_xlabel("number of balls")
     ax.set_ylabel("ms per frame")
     ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def user_scenes_figure(shown: dict[str, Showcase], models: list[str], path: str) -> None:
+    """ "Your scenes": one row per scene, the input circles, the ray marcher's colour and
+    normals, then each of ``models``' normals titled with its silhouette IoU (by the
+    normal buffer, thesis 7.1)."""
+    cols = 3 + len(models)
+    fig, axes = plt.subplots(
+        len(shown), cols, figsize=(1.9 * cols, 2.0 * len(shown)), squeeze=False
+    )
+    for row, (label, show) in zip(axes, shown.items(), strict=True):
+        gt = show.truth
+        panels = [
+            (_hwc(show.circles[:3]), f"scene {label} ({show.balls} balls): circles"),
+            (_hwc(gt[gbuffers.COLOUR]), "ray marcher: colour"),
+            (_hwc(gt[gbuffers.NORMAL]), "ray marcher: normals"),
+        ]
+        for model in models:
+            pred = show.predictions[model]
+            iou = evaluate.iou(gbuffers.silhouette_normal(pred), gbuffers.silhouette_normal(gt))
+            panels.append((_hwc(pred[gbuffers.NORMAL]), f"{model} (IoU {iou:.2f})"))
+        for ax, (img, title) in zip(row, panels, strict=True):
+            ax.imshow(np.clip(img, 0, 1))
+            ax.set_title(title, fontsize=7)
+            ax.axis("off")
     fig.tight_layout()
     save_figure(fig, path)

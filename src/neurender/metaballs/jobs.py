@@ -8,6 +8,7 @@ wildcard values.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pandas as pd
@@ -23,8 +24,11 @@ from neurender.metaballs import (
     speed,
     summary,
     training,
+    user_scenes,
 )
 from neurender.metaballs.renderer import load_renderers
+
+log = logging.getLogger(__name__)
 
 #: AB examples shown in the data summary figure (from the first split).
 SHOWN_EXAMPLES = 4
@@ -102,3 +106,18 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
     timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
     io.write_csv(outputs["targets"], summary.targets(metrics, timing, params["width"]))
+
+
+def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The user's scenes (``scenes``, a CSV of balls) rendered by every variant
+    (``checkpoints`` in the order of :data:`VARIANTS`), the sphere baselines and the ray
+    marcher at width ``width``: the test set's metrics per scene and the figure."""
+    balls = user_scenes.read_user_scenes(inputs["scenes"])
+    for note in user_scenes.outside_training(balls):
+        log.warning("%s: %s", inputs["scenes"], note)
+    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    frame, shown = user_scenes.score_user_scenes(
+        user_scenes.to_scenes(balls), renderers, params["width"]
+    )
+    io.write_csv(outputs["table"], frame)
+    figures.user_scenes_figure(shown, list(VARIANTS), outputs["figure"])

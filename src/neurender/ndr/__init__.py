@@ -6,28 +6,41 @@ nothing heavy, so the Snakefile can read it when it builds the DAG.
 Modules: ``objects``, ``environments``, ``render``, ``shading`` (one scene and its
 buffers), ``data`` and ``pool`` (a split's samples), ``buffers`` (their file format and
 loading), ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
-``relight``, ``furnace``, ``summary`` (statistics, timings, targets), ``figures`` and
-``jobs`` (one function per rule of ``workflow/rules/ndr.smk``).
+``relight``, ``furnace``, ``summary`` (statistics, timings, targets), ``user_objects``
+and ``assets`` (your meshes and the files they name), ``figures`` and ``jobs`` (one
+function per rule of ``workflow/rules/ndr.smk``).
 """
 
 from neurender.ndr.variants import VARIANTS
 
-#: The parts of a dataset; a split is a part of the ``complex`` data (``train``) or of
-#: the ``diffuse`` data (``diffuse_train``).
+#: The parts of a dataset; a split is a part of the ``complex`` data (``train``), of the
+#: ``diffuse`` data (``diffuse_train``) or the ``sunlit`` test set (real-world-like maps).
 PARTS = ("train", "val", "test")
-KINDS = ("complex", "diffuse")
+KINDS = ("complex", "diffuse", "sunlit")
 DIFFUSE_SPLITS = tuple(f"diffuse_{part}" for part in PARTS)
-SPLITS = PARTS + DIFFUSE_SPLITS
+SUNLIT_SPLIT = "sunlit_test"
+SPLITS = PARTS + DIFFUSE_SPLITS + (SUNLIT_SPLIT,)
+
+#: The ``dataset`` label of each kind's rows in the tables.
+DATASETS = {"complex": "complex", "diffuse": "diffuse", "sunlit": "real-world-like maps"}
+
+#: The data each kind's test set is rendered by the networks trained on.
+TRAINED_ON = {"complex": "complex", "diffuse": "diffuse", "sunlit": "complex"}
 
 #: The variants trained and tested on the diffuse, fixed-illumination data.
 DIFFUSE_VARIANTS = tuple(name for name, v in VARIANTS.items() if v.data == "diffuse")
 
 
 def split_kind(split: str) -> tuple[str, str]:
-    """``"diffuse_test"`` -> ``("diffuse", "test")``; ``"train"`` -> ``("complex", "train")``."""
+    """``"diffuse_test"`` -> ``("diffuse", "test")``; ``"train"`` -> ``("complex", "train")``;
+    ``"sunlit_test"`` -> ``("sunlit", "test")`` (the sunlit kind has a test part only)."""
     kind, _, part = split.rpartition("_")
+    if split == SUNLIT_SPLIT:
+        return "sunlit", "test"
     if part not in PARTS or kind not in ("", "diffuse"):
-        raise ValueError(f"NDR split {split!r}: expected [diffuse_]train|val|test")
+        raise ValueError(
+            f"NDR split {split!r}: expected [diffuse_]train|val|test or {SUNLIT_SPLIT}"
+        )
     return kind or "complex", part
 
 

@@ -89,8 +89,9 @@ def coarse_maps(
     cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, *key
 ) -> tuple[np.ndarray, np.ndarray]:
     """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
-    (0 off the object), from the map downsampled to ``coarse_height`` rows; ``key`` (e.g.
-    split and index) seeds the sample pattern."""
+    (0 off the object), from the map downsampled to ``coarse_height`` rows, at most
+    ``bright_texels`` of its texels sampled explicitly (:mod:`neurender.ndr.shading`);
+    ``key`` (e.g. split and index) seeds the sample pattern."""
     width = cfg["width"]
     m = g["mask"].reshape(-1) > 0
     small = torch.from_numpy(environments.resize_latlong(env, cfg["coarse_height"]))
@@ -103,6 +104,7 @@ def coarse_maps(
         small,
         cfg["coarse_samples"],
         torch_generator(cfg["seed"], "ndr-coarse", *key),
+        max_bright=cfg["bright_texels"],
     )
     s_d[m], s_s[m] = sd.numpy(), ss.numpy()
     return s_d.reshape(width, width, 3), s_s.reshape(width, width, 3)
@@ -147,7 +149,7 @@ def make_sample(
     g = render.g_buffers(obj, view, width)
     spp = cfg["reference_spp"] if part == "test" else cfg["spp"]
     render_seed = int(rng.integers(2**30))
-    specular = kind == "complex"
+    specular = kind != "diffuse"  # complex and sunlit objects have SVBRDFs
     tic = time.perf_counter()
     maps = render.shading_maps(mi, obj, env, view, width, spp, render_seed, specular)
     render_seconds = time.perf_counter() - tic

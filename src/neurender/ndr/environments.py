@@ -4,6 +4,11 @@ Maps are lat-long ``(H, 2H, 3)`` float32 linear radiance in the convention of
 :mod:`neurender.sh` (Mitsuba's ``envmap``: y up, ``u = atan2(x, -z) / 2 pi``). The network's
 light input is the 5-band SH projection, 25 coefficients x RGB = 75 numbers, ordered
 coefficient-major (``k * 3 + channel``, ``k = l (l + 1) + m``).
+
+Real outdoor maps put more than half of their power in the sun, one texel of a coarse
+map; :func:`random_environment` draws a share of such maps and :func:`sunlit_environment`
+only such maps (the real-world-like test set). User maps are loaded (and checked) once per
+process by :func:`user_map`.
 """
 
 from __future__ import annotations
@@ -82,11 +87,12 @@ def random_environment(
 
     Sky gradient (zenith, horizon and ground colours), a coloured fill lobe, then with
     probability ``small_sun_fraction`` an outdoor sun as real maps have one
-    (:data:`SMALL_SUN_DIAMETER_DEG` across, :data:`SMALL_SUN_RADIANCE` times the sky's
-    radiance, log-uniform: the sun then holds about 25 % to 85 % of the map's power, median
-    60 %, in one
-    texel; :func:`add_small_sun`), else one or two broad emitters: a sun (2-6 degree disk,
-    100-2000 x the sky) or a window-like soft rectangle.
+    (:data:`SMALL_SUN_DIAMETER_DEG` across, :data:`SMALL_SUN_RADIANCE` times the sky
+    level, log-uniform: the sun then holds 27 % to 87 % of the coarse map's power, median
+    60 %, in one texel; :func:`add_small_sun`), else one or two broad emitters: a sun (2-6
+    degree disk, 100-2000 x the sky) or a window-like soft rectangle (2 % to 21 %, median
+    5 %; :func:`sun_share`). ``small_sun_fraction`` 0 draws exactly the maps drawn before
+    the small sun existed.
     """
     return _random_environment(rng, height, small_sun_fraction)[0]
 

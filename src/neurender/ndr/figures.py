@@ -161,3 +161,50 @@ def relighting_figure(
             axes[r, k].axis("off")
     fig.tight_layout()
     save_figure(fig, out)
+
+
+def user_objects_figure(
+    labels: list[tuple[str, str, str]],
+    buffers: dict[str, torch.Tensor],
+    truth: dict[str, torch.Tensor],
+    methods: dict[str, dict[str, torch.Tensor]],
+    per_map: pd.DataFrame,
+    out: str,
+) -> None:
+    """ "Your objects": one row per object and map set (its first map), left to right the
+    albedo, Mitsuba's ``I_R``, NDR's and the shading input's (titled with their DSSIM of
+    ``I_R``) and NDR's error.
+
+    ``labels``: ``(object, map set, map)`` of every render, in the order of the
+    ``(N, C, H, W)`` tensors; ``per_map``: the scores (columns ``model, object, map,
+    metric, value``).
+    """
+    shown = {}
+    for i, (name, map_set, _) in enumerate(labels):
+        shown.setdefault((name, map_set), i)
+    dssim = per_map[per_map.metric == "dssim_I_R"].set_index(["model", "object", "map"])["value"]
+    fig, axes = plt.subplots(len(shown), 5, figsize=(8.0, 1.75 * len(shown)), squeeze=False)
+    for row, ((name, map_set), i) in zip(axes, shown.items(), strict=True):
+        map_name = labels[i][2]
+        ndr_error = (reinhard(methods["ndr"]["I_R"][i]) - reinhard(truth["I_R"][i])).abs()
+        panels = [
+            (f"{name}: albedo A_D", buffers["A_D"][i].permute(1, 2, 0).numpy(), None),
+            (f"Mitsuba, {map_set}\n{map_name}", _show(truth["I_R"][i]), None),
+            (f"NDR ({dssim[('ndr', name, map_name)]:.3f})", _show(methods["ndr"]["I_R"][i]), None),
+            (
+                f"shading input ({dssim[(SHADING_INPUT, name, map_name)]:.3f})",
+                _show(methods[SHADING_INPUT]["I_R"][i]),
+                None,
+            ),
+            ("|NDR - Mitsuba| (0-0.2)", ndr_error.mean(0).numpy(), "magma"),
+        ]
+        for ax, (title, image, cmap) in zip(row, panels, strict=True):
+            if cmap:
+                ax.imshow(image, cmap=cmap, vmin=0, vmax=0.2)
+            else:
+                ax.imshow(np.clip(image, 0, 1))
+            ax.set_title(title, fontsize=6)
+            ax.axis("off")
+    fig.suptitle("Your objects: Mitsuba, NDR and the shading input (DSSIM of I_R)", fontsize=8)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))
+    save_figure(fig, out)

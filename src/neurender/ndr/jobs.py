@@ -8,16 +8,31 @@ variants are those of :mod:`neurender.ndr.variants`.
 
 from __future__ import annotations
 
+import logging
+import sys
+
 import pandas as pd
 
 from neurender import io, train
 from neurender.mitsuba_setup import require_mitsuba
-from neurender.ndr import KINDS, data, figures, furnace, relight, split_name, summary
+from neurender.ndr import (
+    KINDS,
+    data,
+    figures,
+    furnace,
+    pool,
+    relight,
+    split_name,
+    summary,
+    user_objects,
+)
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import score_split
 from neurender.ndr.model import SHADING_INPUT, load_model
 from neurender.ndr.training import train_variant
 from neurender.tables import target_table
+
+log = logging.getLogger(__name__)
 
 SPLIT_FILES = ("dir", "manifest", "lighting")
 
@@ -41,12 +56,17 @@ def ndr_data(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 
 def ndr_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Per-split statistics (the ``manifests`` of ``params["splits"]``), the white-furnace
-    checks and the buffers figure of the ``example`` split."""
+    and sun checks and the buffers figure of the ``example`` split."""
     manifests = dict(zip(params["splits"], inputs["manifests"], strict=True))
     io.write_csv(outputs["csv"], summary.split_statistics(manifests))
     mi, _ = require_mitsuba(params["device"])
     checks = furnace.furnace(
-        mi, params["width"], params["furnace_spp"], params["coarse_samples"], params["seed"]
+        mi,
+        params["width"],
+        params["furnace_spp"],
+        params["coarse_samples"],
+        params["seed"],
+        params["coarse_height"],
     )
     io.write_csv(outputs["furnace"], target_table("ndr", checks))
     figures.buffers_figure(inputs["example"], outputs["figure"])
@@ -121,5 +141,41 @@ def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
         images["ndr"]["I_R"],
         images[SHADING_INPUT]["I_R"],
         table[table.metric == "dssim_I_R"],
+        outputs["figure"],
+    )
+
+
+def ndr_user_objects(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every user object (``user_objects``: name -> mesh file) under the test maps, the
+    real-world-like maps and the user's maps (:func:`user_objects.object_maps`): Mitsuba's
+    reference, NDR (``checkpoint``) and the shading input; the scores per map, their means
+    per object and map set, and the figure "your objects"."""
+    if not params["user_objects"]:
+        raise ValueError("ndr.user_objects is empty: name at least one mesh file to render")
+    defaults = params["user_object_defaults"]
+    objects = {}
+    for name, path in params["user_objects"].items():
+        objects[name] = user_objects.load_user_object(path, defaults)
+        log.info("user object %s (%s): %s", name, path, user_objects.description(objects[name]))
+    entries = user_objects.object_maps(params)
+    tasks = [(params, name, obj, entry) for name, obj in objects.items() for entry in entries]
+    workers = 1 if "drjit" in sys.modules else threads
+    renders = pool.render_all(
+        user_objects.render_object, tasks, params["device"], workers, "ndr your objects"
+    )
+    device = train.resolve_device(params["device"], threads)
+    labels = [(name, entry) for _, name, _, entry in tasks]
+    scores = user_objects.score_objects(
+        renders, labels, load_model(inputs["checkpoint"], device), params["mask_erosion"], device
+    )
+    per_map = pd.DataFrame(scores.rows)
+    io.write_csv(outputs["maps"], per_map)
+    io.write_csv(outputs["table"], user_objects.mean_rows(per_map))
+    figures.user_objects_figure(
+        [(name, entry.map_set, entry.name) for name, entry in labels],
+        scores.buffers,
+        scores.truth,
+        scores.methods,
+        per_map,
         outputs["figure"],
     )

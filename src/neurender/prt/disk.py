@@ -6,15 +6,22 @@ order, and counts every change:
 
 1. weld: vertices closer than :data:`WELD_TOLERANCE` times the bounding-box diagonal are
    merged (exporters split vertices at UV and normal seams; STL stores every triangle's own
-   corners); triangles left with two equal corners and repeated triangles are dropped;
+   corners); triangles left with two equal corners and repeated triangles are dropped.
+   When welding glues a surface to itself into something steps 2-3 refuse (a parametric
+   surface that repeats the vertices of its seam or pole), the mesh is kept as it came;
 2. check: one edge-connected surface, edge- and vertex-manifold, orientable; anything
    else raises ``ValueError`` naming the mesh and the counts;
 3. orient: consistent winding; a closed surface's normals outward (positive volume), an
    open surface keeps its majority's winding (its front);
-4. cut: a surface with handles or several boundary loops along libigl's ``cut_to_disk``
-   (the triangle deletion of Gu et al.'s geometry images), a closed genus-0 surface (which
-   ``cut_to_disk`` leaves alone) along the shortest edge path between its two extremes
-   on the longest principal axis; ``cut_mesh`` then duplicates the vertices on the seam.
+4. cut: a surface with boundary and handles, or with several boundary loops, along
+   libigl's ``cut_to_disk`` (the triangle deletion of Gu et al.'s geometry images); a
+   closed surface with handles along its shortest system of loops (greedy homotopy
+   generators, Erickson and Whittlesey 2005: a shortest-path tree and a dual cotree,
+   each left-over edge closing one loop), which maps a torus with a stretch of 1.5-2
+   where ``cut_to_disk``'s cut, whose paths can run side by side, gave up to several
+   hundred; a closed genus-0 surface (which ``cut_to_disk`` leaves alone) along the
+   shortest edge path between its two extremes on the longest principal axis.
+   ``cut_mesh`` then duplicates the vertices on the seam.
 
 Provenance: every triangle of the result remembers its source triangle ``parent`` and
 the barycentric coordinates of its three corners in it (``corners``, ``(F, 3, 3)``;
@@ -118,7 +125,7 @@ def weld(
 def check_surface(faces: np.ndarray, name: str) -> None:
     """Raise ``ValueError`` naming ``name`` unless the triangles form one edge-connected,
     edge- and vertex-manifold surface."""
-    undirected, counts = np.unique(np.sort(edges_of(faces), axis=1), axis=0, return_counts=True)
+    _, counts = np.unique(np.sort(edges_of(faces), axis=1), axis=0, return_counts=True)
     adjacency = _face_adjacency(faces)
     n_comp, labels = scipy.sparse.csgraph.connected_components(adjacency, directed=False)
     if n_comp != 1:
@@ -220,6 +227,46 @@ def genus0_cut(vertices: np.ndarray, faces: np.ndarray) -> list[int]:
     return path[::-1]
 
 
+def shortest_loops(vertices: np.ndarray, faces: np.ndarray) -> list[list[int]]:
+    """The ``2 g`` loops of a closed genus-``g`` surface through one root vertex (the
+    lower-left extreme, min x + y) that cut it into a disk, each as short as the greedy
+    tree-cotree construction makes it (Erickson and Whittlesey 2005)."""
+    edges, edge_id = np.unique(np.sort(edges_of(faces), axis=1), axis=0, return_inverse=True)
+    edge_id = edge_id.reshape(-1, 3)
+    n = len(vertices)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    graph = scipy.sparse.coo_matrix((length + 1e-30, (edges[:, 0], edges[:, 1])), shape=(n, n))
+    used = np.unique(faces)
+    root = int(used[np.argmin(vertices[used, 0] + vertices[used, 1])])
+    dist, pred = scipy.sparse.csgraph.dijkstra(
+        graph, directed=False, indices=root, return_predecessors=True
+    )
+    key = edges @ [n, 1]
+    child = np.nonzero(pred >= 0)[0]
+    in_tree = np.isin(key, np.sort(np.stack([child, pred[child]], 1), axis=1) @ [n, 1])
+    # The two triangles of every edge (closed manifold), then the dual spanning tree that
+    # keeps the longest loops out of the cut: a maximum spanning tree of loop lengths.
+    order = np.argsort(edge_id.ravel(), kind="stable")
+    sides = (order // 3).reshape(-1, 2)
+    loop_length = dist[edges[:, 0]] + length + dist[edges[:, 1]]
+    free = np.nonzero(~in_tree)[0]
+    weight = loop_length.max() + 1.0 - loop_length[free]
+    dual = scipy.sparse.coo_matrix(
+        (weight, (sides[free, 0], sides[free, 1])), shape=(len(faces), len(faces))
+    )
+    cotree = scipy.sparse.csgraph.minimum_spanning_tree(dual).tocoo()
+    cotree_pairs = np.sort(np.stack([cotree.row, cotree.col], 1), axis=1) @ [len(faces), 1]
+    in_cotree = np.isin(np.sort(sides, axis=1) @ [len(faces), 1], cotree_pairs) & ~in_tree
+
+    def to_root(v: int) -> list[int]:
+        path = [int(v)]
+        while path[-1] != root:
+            path.append(int(pred[path[-1]]))
+        return path
+
+    return [to_root(a)[::-1] + to_root(b) for a, b in edges[~in_tree & ~in_cotree]]
+
+
 def cut_flags(faces: np.ndarray, cuts: list[list[int]]) -> np.ndarray:
     """``(F, 3)`` flags of the triangle edges ``(f_k, f_{k+1})`` on the cut paths."""
     on_cut = {tuple(sorted(e)) for path in cuts for e in zip(path[:-1], path[1:], strict=True)}
@@ -240,17 +287,20 @@ def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
     if len(faces) == 0:
         raise ValueError(f"mesh {name}: no triangles found")
     welded, kept, n_welded = weld(vertices, faces)
+    if len(kept) == 0:
+        raise ValueError(f"mesh {name}: every triangle has zero size")
     try:
         check_surface(welded, name)
+        oriented, flipped = orient(vertices, welded, name)
     except ValueError as welded_error:
         # Welding glued a surface to itself (a parametric surface whose seam or pole
-        # repeats vertices): keep the mesh as it came if that is one manifold surface.
+        # repeats vertices): keep the mesh as it came if that is one orientable surface.
         try:
             check_surface(faces, name)
+            oriented, flipped = orient(vertices, faces, name)
         except ValueError:
             raise welded_error from None
-        welded, kept, n_welded = faces, np.arange(len(faces)), 0
-    oriented, flipped = orient(vertices, welded, name)
+        kept, n_welded = np.arange(len(faces)), 0
     corners = np.repeat(np.eye(3)[None], len(kept), axis=0)
     corners[flipped] = corners[flipped][:, [0, 2, 1]]
     loops, genus = topology(oriented)
@@ -267,8 +317,12 @@ def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
     if loops == 1 and genus == 0:
         cut_vertices, cut_faces, source = vertices, oriented, np.arange(len(vertices))
     else:
-        # cut_to_disk leaves a closed genus-0 surface alone.
-        cuts = igl.cut_to_disk(oriented) or [genus0_cut(vertices, oriented)]
+        if loops:
+            cuts = igl.cut_to_disk(oriented)
+        elif genus:
+            cuts = shortest_loops(vertices, oriented)
+        else:
+            cuts = [genus0_cut(vertices, oriented)]
         flags = cut_flags(oriented, cuts)
         cut_vertices, cut_faces, source = igl.cut_mesh(vertices, oriented, flags)
         boundary = {

@@ -9,9 +9,11 @@ The map is harmonic (cotangent weights) where that is bijective, else uniform (T
 weights, which Floater's theorem makes bijective for a convex boundary unless an interior
 edge joins two vertices on one side of the square: the triangles between such an edge
 and that side (a boundary "ear" of a third-party mesh, a chord along a cut) collapse onto
-the side. :func:`build_geometry_image` splits every such edge at its midpoint first (the
-new vertex is interior), so a disk always maps without flipped triangles. Map quality is
-reported as Sander et al.'s (2001) L2 and max stretch, normalised so that 1 is isometric.
+the side. When the map flips a triangle, :func:`build_geometry_image` splits every such
+edge at its midpoint (the new vertex is interior) and maps again, so a disk always maps
+without flipped triangles; the grid's lookup is then expressed in the input's triangles.
+Map quality is reported as Sander et al.'s (2001) L2 and max stretch, normalised so that 1
+is isometric. Meshes that are not disks are made disks first (:func:`parametrise`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from neurender.geometry import grid_faces
+from neurender.prt.disk import DiskMesh, to_disk
 
 # Corners of the square, counter-clockwise, matching a counter-clockwise boundary loop.
 _SQUARE_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -44,6 +47,7 @@ class GeometryImage:
             ends on one side of the square); their new vertices follow the rows of ``uv``
             that belong to the source vertices.
         stretch_l2, stretch_max: Sander et al.'s normalised L2 and max stretch of the map.
+        uv_faces: ``(F', 3)`` triangles of ``uv`` (the input's, split where needed).
     """
 
     uv: np.ndarray
@@ -55,13 +59,23 @@ class GeometryImage:
     split_edges: int = 0
     stretch_l2: float = float("nan")
     stretch_max: float = float("nan")
+    uv_faces: np.ndarray | None = None
 
     def resample(self, faces: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Interpolate per-source-vertex ``values`` ``(V, ...)`` onto the grid ``(n, n, ...)``."""
-        corners = values[faces[self.face]]  # (n*n, 3, ...)
-        w = self.bary.reshape(self.bary.shape + (1,) * (values.ndim - 1))
-        out = (corners * w).sum(axis=1)
-        return out.reshape((self.n, self.n) + values.shape[1:])
+        return resample(self.face, self.bary, self.n, faces, values)
+
+
+def resample(
+    face: np.ndarray, bary: np.ndarray, n: int, faces: np.ndarray, values: np.ndarray
+) -> np.ndarray:
+    """Per-vertex ``values`` ``(V, ...)`` of a mesh with triangles ``faces`` on the
+    ``n x n`` grid ``(n, n, ...)``, grid point ``k`` at barycentric coordinates ``bary[k]``
+    in triangle ``face[k]`` (a :class:`GeometryImage`'s lookup)."""
+    corners = values[faces[face]]  # (n*n, 3, ...)
+    w = bary.reshape(bary.shape + (1,) * (values.ndim - 1))
+    out = (corners * w).sum(axis=1)
+    return out.reshape((n, n) + values.shape[1:])
 
 
 def boundary_square(
@@ -165,13 +179,15 @@ def square_boundary(
     return loop, boundary_square(vertices, loop, uniform_share, corners)
 
 
-def _anchored_corners(vertices: np.ndarray, loop: np.ndarray, marked: np.ndarray) -> list[int]:
+def _anchored_corners(
+    vertices: np.ndarray, loop: np.ndarray, marked: np.ndarray
+) -> list[int] | None:
     """Positions in ``loop`` of the marked vertices nearest to the quarters of its arc
     length (``marked`` holds 0, the start); None when two quarters pick the same one."""
     seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
     s = np.concatenate([[0.0], np.cumsum(seg)])
     corners = [0] + [int(marked[np.argmin(np.abs(s[marked] - k * s[-1] / 4))]) for k in (1, 2, 3)]
-    return corners if all(a < b for a, b in zip(corners, corners[1:])) else None
+    return corners if all(np.diff(corners) > 0) else None
 
 
 def count_flipped(uv: np.ndarray, faces: np.ndarray) -> int:
@@ -359,6 +375,7 @@ def build_geometry_image(
         split_edges=len(split),
         stretch_l2=quality["l2"],
         stretch_max=quality["max"],
+        uv_faces=mapped_faces,
     )
 
 
@@ -381,3 +398,18 @@ def reconstruction_error(
     d = np.sqrt(np.concatenate([d1, d2]))
     diag = float(np.linalg.norm(src.max(0) - src.min(0)))
     return {"mean": float(d.mean() / diag), "max": float(d.max() / diag)}
+
+
+def parametrise(
+    vertices: np.ndarray, faces: np.ndarray, n: int, name: str
+) -> tuple[GeometryImage, DiskMesh]:
+    """Geometry image of any single connected surface: made a disk
+    (:func:`neurender.prt.disk.to_disk`), mapped (:func:`build_geometry_image`), and its
+    lookup expressed in the input's triangles, so :meth:`GeometryImage.resample` with
+    ``faces`` resamples any per-vertex quantity of the input mesh (every frame of an
+    animation). ``uv`` holds the disk's vertices (seam vertices twice).
+    """
+    disk = to_disk(vertices, faces, name)
+    gim = build_geometry_image(disk.vertices, disk.faces, n, disk.anchors)
+    gim.face, gim.bary = disk.lift(gim.face, gim.bary)
+    return gim, disk

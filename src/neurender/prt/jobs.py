@@ -15,19 +15,32 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender import io, lights, sh
-from neurender.prt import MATERIALS, SPLITS, figures, frames, noise, objects, summary, transfer
+from neurender.prt import (
+    MATERIALS,
+    SPLITS,
+    animations,
+    figures,
+    frames,
+    noise,
+    objects,
+    summary,
+    transfer,
+)
 from neurender.prt.equal_quality import timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
-from neurender.prt.geometry_image import build_geometry_image, reconstruction_error
+from neurender.prt.geometry_image import parametrise, reconstruction_error, resample
 from neurender.prt.model import DeepPRT, export_deepprt
 from neurender.prt.momoprt import MoMoPRT, fit_momoprt
 from neurender.prt.scores import aggregate, score_frames
-from neurender.prt.sequences import build_sequences
+from neurender.prt.sequences import build_sequences, user_sequences
 from neurender.prt.training import train_deepprt
-from neurender.shapes import BLENDSHAPES
+from neurender.shapes import BLENDSHAPES, SourceMesh
 from neurender.tables import tidy_rows
 
 log = logging.getLogger(__name__)
+
+#: What :func:`prt_geometry_image` may change in a mesh to map it (counted in its table).
+REPAIRS = ("welded_vertices", "dropped_faces", "reoriented_faces", "seam_edges", "split_edges")
 
 
 def _light(path: str, n_bands: int) -> np.ndarray:
@@ -55,18 +68,35 @@ def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     io.write_csv(outputs["sh"], frames.sh_light_table(sh.project_latlong(image, params["n_bands"])))
 
 
+def _user_sequence(inputs: dict, name: str) -> tuple[animations.Frames, animations.Frames | None]:
+    """A user animation's frames and separate test frames, checked up front."""
+    return animations.load_sequence(
+        inputs["frames"], inputs.get("test_frames", []), f"prt.user_sequences.{name}"
+    )
+
+
 def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The object's source mesh (built in, or the user's mesh ``source``) parametrised on
-    the square and resampled, with its blendshapes, on the ``resolution^2`` grid."""
+    """The object's rest shape (built in, the user's mesh ``source``, or the first of the
+    user's animation ``frames``) made a disk, parametrised on the square and resampled,
+    with its blendshapes, on the ``resolution^2`` grid; the grid's lookup (``face``,
+    ``bary`` in the source triangles) resamples every other frame the same way."""
     start = time.perf_counter()
     name, n, seed = params["object"], params["resolution"], params["seed"]
-    source = inputs.get("source")
-    mesh = objects.source_mesh(name, params["source_vertices"], seed, source)
+    counts = {}
+    if "frames" in inputs:
+        sequence, test = _user_sequence(inputs, name)
+        mesh, kind = SourceMesh(sequence.positions[0], sequence.faces), "user_sequence"
+        label = str(sequence.files[0])
+        counts = {"frames": len(sequence.files), "test_frames": len(test.files) if test else 0}
+    elif "source" in inputs:
+        mesh, label, kind = objects.load_user_mesh(inputs["source"]), inputs["source"], "user"
+    else:
+        mesh, label, kind = objects.source_mesh(name, params["source_vertices"], seed), name, name
     # The plane shares the head's map so S_lin = a S_head + (1 - a) S_plane keeps pixels aligned.
     mapped = (
         objects.source_mesh("head", params["source_vertices"], seed) if name == "plane" else mesh
     )
-    gim = build_geometry_image(mapped.vertices, mapped.faces, n)
+    gim, disk = parametrise(mapped.vertices, mapped.faces, n, label)
     if gim.flipped:
         raise RuntimeError(f"object {name}: harmonic map still has {gim.flipped} flipped triangles")
     rest = gim.resample(mesh.faces, mesh.vertices)
@@ -83,9 +113,11 @@ def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) 
         deltas=deltas.astype(np.float32),
         blendshapes=np.array(names, dtype=str),
         uv=gim.uv,
+        face=gim.face,
+        bary=gim.bary,
         source_vertices=mesh.vertices,
         source_faces=mesh.faces,
-        kind=np.array("user" if source else name),
+        kind=np.array(kind),
     )
     stats = {
         "source_vertices": len(mesh.vertices),
@@ -95,15 +127,38 @@ def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) 
         "recon_error_mean": error["mean"],
         "recon_error_max": error["max"],
         "seconds": time.perf_counter() - start,
+        **counts,
+        **{k: disk.changes[k] for k in ("boundary_loops", "genus", "seam_edges", "seam_length")},
+        "stretch_l2": gim.stretch_l2,
+        "stretch_max": gim.stretch_max,
+        **{k: disk.changes[k] for k in ("welded_vertices", "dropped_faces", "reoriented_faces")},
+        "split_edges": gim.split_edges,
     }
+    repaired = {k: stats[k] for k in REPAIRS if stats[k]}
+    if repaired:
+        log.info("%s: changed to map %s without flipped triangles: %s", name, label, repaired)
     log.info("%s: %s", name, stats)
     rows = tidy_rows("prt", name, "geometry image", "all", stats)
     io.write_csv(outputs["stats"], pd.DataFrame(rows))
 
 
 def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Deformation frames of every split (:mod:`neurender.prt.sequences`)."""
-    arrays = build_sequences(params["object"], io.load_npz(inputs["gim"]), params)
+    """Deformation frames of every split (:mod:`neurender.prt.sequences`); a user
+    animation's frames resampled through its geometry image's lookup."""
+    gim = io.load_npz(inputs["gim"])
+    name = params["object"]
+    if "frames" in inputs:
+        sequence, test = _user_sequence(inputs, name)
+        n = gim["rest"].shape[0]
+
+        def grids(frames: animations.Frames) -> np.ndarray:
+            return np.stack(
+                [resample(gim["face"], gim["bary"], n, frames.faces, p) for p in frames.positions]
+            )
+
+        arrays = user_sequences(name, grids(sequence), grids(test) if test else None, params)
+    else:
+        arrays = build_sequences(name, gim, params)
     io.save_npz(outputs["seq"], **arrays)
 
 
@@ -252,7 +307,6 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
         dict(zip(keys, inputs["onnx"], strict=True)),
         frame_dirs,
         params["resolution"],
-        params["frames"]["train"] + params["frames"]["val"],
         params["n_bands"],
     )
     io.write_csv(outputs["compression"], compression)

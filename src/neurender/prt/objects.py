@@ -1,4 +1,4 @@
-"""Source meshes of the DeepPRT objects: procedural built-ins and validated user meshes.
+"""Source meshes of the DeepPRT objects: procedural built-ins and user mesh files.
 
 All built-ins are open, disk-topology surfaces with real self-shadowing (concavities and
 protrusions), deterministic from a seed, in world units with the object facing +z and y up:
@@ -9,6 +9,10 @@ protrusions), deterministic from a seed, in world units with the object facing +
 * ``cloth``: a flat square sheet, animated by a cloth simulation.
 * ``plane``: the head's disk flattened to z = 0 (same parametrisation as ``head``), for the
   linear shape space of paper section 4.2.2.
+
+User meshes (``prt.user_meshes``, and every frame of ``prt.user_sequences``) are read as
+stored (:func:`read_mesh`): any single connected surface, open or closed, of any genus;
+:mod:`neurender.prt.disk` makes it a disk.
 """
 
 from __future__ import annotations
@@ -17,12 +21,12 @@ from pathlib import Path
 
 import igl
 import numpy as np
+import pyvista as pv
 import scipy.spatial
 import trimesh
 
+from neurender.prt import MESH_SUFFIXES, VTK_SUFFIXES
 from neurender.shapes import SourceMesh, disk_mesh, gauss, head_mesh
-
-USER_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 
 
 def plane_mesh(n_vertices: int, rng: np.random.Generator) -> SourceMesh:
@@ -96,31 +100,51 @@ def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> N
         )
 
 
-def load_user_mesh(path: str | Path) -> SourceMesh:
-    """Load an OBJ/PLY/STL/OFF mesh and check it has disk topology (errors name the file)."""
+def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices ``(V, 3)`` float64 and triangles ``(F, 3)`` int64 of a mesh file, as stored.
+
+    Raises ``ValueError``/``OSError`` naming the file for an unknown format, an unreadable
+    file, no triangles or non-finite positions.
+    """
     p = Path(path)
-    if p.suffix.lower() not in USER_MESH_SUFFIXES:
+    suffix = p.suffix.lower()
+    if suffix not in MESH_SUFFIXES + VTK_SUFFIXES:
         raise ValueError(
-            f"mesh {p}: unsupported format {p.suffix!r}; expected one of {USER_MESH_SUFFIXES}"
+            f"mesh {p}: unsupported format {p.suffix!r}; expected one of "
+            f"{', '.join(MESH_SUFFIXES + VTK_SUFFIXES)}"
         )
     if not p.is_file():
         raise FileNotFoundError(f"mesh file {p} does not exist")
     try:
-        mesh = trimesh.load(p, force="mesh", process=True)
-    except Exception as err:
+        if suffix in VTK_SUFFIXES:
+            mesh = pv.read(p)
+            surface = mesh if isinstance(mesh, pv.PolyData) else mesh.extract_surface()
+            surface = surface.triangulate()
+            vertices = np.asarray(surface.points, dtype=np.float64)
+            faces = surface.faces.reshape(-1, 4)[:, 1:] if surface.n_cells else np.zeros((0, 3))
+        else:
+            mesh = trimesh.load(p, force="mesh", process=False)
+            vertices, faces = mesh.vertices, mesh.faces
+    except Exception as err:  # every reader has its own exceptions
         raise OSError(f"cannot read mesh file {p}: {err}") from err
-    if len(mesh.faces) == 0:
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(faces) == 0:
         raise ValueError(f"mesh {p}: no triangles found")
-    mesh.remove_unreferenced_vertices()
-    vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
-    check_disk_topology(vertices, faces, str(p))
-    return SourceMesh(vertices, faces)
+    bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+    if bad:
+        raise ValueError(f"mesh {p}: {bad} vertices are not finite (NaN or inf)")
+    return vertices, faces
 
 
-def source_mesh(name: str, n_vertices: int, seed: int, user_path: str | None = None) -> SourceMesh:
-    """The source mesh of a built-in object or a user mesh file."""
-    if user_path is not None:
-        return load_user_mesh(user_path)
+def load_user_mesh(path: str | Path) -> SourceMesh:
+    """A user's mesh file as stored (:func:`read_mesh`); the geometry-image job welds,
+    checks and cuts it into a disk (:func:`neurender.prt.disk.to_disk`)."""
+    return SourceMesh(*read_mesh(path))
+
+
+def source_mesh(name: str, n_vertices: int, seed: int) -> SourceMesh:
+    """The source mesh of a built-in object (user meshes: :func:`load_user_mesh`)."""
     if name not in BUILTIN:
         raise KeyError(f"unknown object {name!r}; built-ins are {sorted(BUILTIN)}")
     # The plane shares the head's seed so both have the same triangulation.

@@ -3,7 +3,8 @@
 Train and val are one smooth sequence (val frames a random subset, as the paper's 450/50
 split); test frames lie outside it: unseen blendshape combinations with weights up to 1.3
 (head), a separately seeded simulation (cloth; training joins four), or unseen lattice
-motion (creature, user meshes). ``head_linear``: S_lin = a S_head + (1 - a) S_plane with a
+motion (creature, user meshes), or the last frames of a user animation
+(:func:`user_sequences`). ``head_linear``: S_lin = a S_head + (1 - a) S_plane with a
 in [0, 1] for training, evenly spaced over ``linear_range`` for test. ``head_excluded``:
 the head without the ``excluded_expression`` blendshape in training; test shapes move from
 the mean training shape to that expression. Positions are geometry images ``(F, n, n, 3)``
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from neurender.prt import EXPERIMENTS, SPLITS, deform
+from neurender.prt import EXPERIMENTS, SPLITS, deform, held_out_frames
 from neurender.rng import stable_seed
 
 
@@ -52,6 +53,52 @@ def build_sequences(name: str, gim: dict[str, np.ndarray], cfg: dict) -> dict[st
         "val_frame": val_idx,
         "test_extrapolated": extrapolated,
         "kind": np.array(kind),
+    }
+
+
+def user_sequences(
+    name: str, frames: np.ndarray, test: np.ndarray | None, cfg: dict
+) -> dict[str, np.ndarray]:
+    """The arrays of ``sequence.npz`` for a user animation (``prt.user_sequences``).
+
+    Args:
+        frames: ``(F, n, n, 3)`` geometry images of the animation's frames, in order.
+        test: ``(T, n, n, 3)`` of its separate test frames, or None: then the last
+            ``cfg["test_fraction"]`` of ``frames`` is held out (extrapolation in time,
+            flagged ``test_extrapolated``).
+        cfg: ``seed``, ``frames`` (the built-ins' train/val counts, whose ratio splits the
+            rest into train and val as for them) and ``test_fraction``.
+
+    Shape parameters (MoMoPRT's, without blendshapes) are the leading PCA coefficients of
+    the position images, as for the cloth.
+    """
+    entry = f"prt.user_sequences.{name}"
+    extrapolated = test is None
+    if test is None:
+        held = held_out_frames(len(frames), cfg["test_fraction"])
+        frames, test = frames[:-held], frames[-held:]
+    seq_len = len(frames)
+    if seq_len < 2:
+        raise ValueError(
+            f"{entry}: {seq_len} frame(s) left for training and validation; a sequence needs "
+            "at least 2 besides its test frames"
+        )
+    share = cfg["frames"]["val"] / (cfg["frames"]["train"] + cfg["frames"]["val"])
+    n_val = min(seq_len - 1, max(1, round(share * seq_len)))
+    order = np.random.default_rng(stable_seed(cfg["seed"], name, "split")).permutation(seq_len)
+    val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
+    seq_params, test_params = _pca_params(frames, test)
+    return {
+        "train_positions": frames[train_idx].astype(np.float32),
+        "val_positions": frames[val_idx].astype(np.float32),
+        "test_positions": test.astype(np.float32),
+        "train_params": seq_params[train_idx].astype(np.float32),
+        "val_params": seq_params[val_idx].astype(np.float32),
+        "test_params": test_params.astype(np.float32),
+        "train_frame": train_idx,
+        "val_frame": val_idx,
+        "test_extrapolated": np.full(len(test), extrapolated),
+        "kind": np.array("user_sequence"),
     }
 
 

@@ -42,10 +42,11 @@ def compression_rows(
     onnx_files: dict,
     frame_dirs: dict,
     n: int,
-    frames: int,
     n_bands: int,
 ) -> pd.DataFrame:
-    """Compression ratio r = frames n^2 m / parameters (ours and the paper's setting), bytes."""
+    """Compression ratio r = frames n^2 m / parameters (ours and the paper's setting), bytes;
+    ``frames`` are an object's training and validation frames (``frame_dirs[object]``: the
+    train, val and test folders)."""
     k = n_bands * n_bands
     rows = []
 
@@ -63,6 +64,7 @@ def compression_rows(
             )
         add("paper setting", f"DeepPRT {material}", "parameters", paper_params)
         for obj in objects:
+            frames = sum(len(list(Path(d).glob("*.exr"))) for d in frame_dirs[obj][:2])
             state = torch.load(checkpoints[(obj, material)], map_location="cpu", weights_only=False)
             params = state["extra"]["parameters"]
             add(obj, f"DeepPRT {material}", "parameters", params)

@@ -20,3 +20,13 @@ CASE_FILES = {
     "albedo": "optimised_albedo.png",
     "loss": "loss.csv",
 }
+
+#: The exported files of a case (written by the optimisation, read back by the evaluation
+#: for user assets): the GLB and the OBJ, each with the files it names beside it.
+EXPORT_FILES = {
+    "glb": "optimised.glb",
+    "obj": "optimised.obj",
+    "mtl": "optimised.mtl",
+    "texture": "optimised_texture.png",
+    "normal_texture": "optimised_texture_normal.png",
+}

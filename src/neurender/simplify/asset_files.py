@@ -59,6 +59,16 @@ def _obj_materials(obj: Path) -> list[Path]:
     return names
 
 
+def obj_maps(obj: str | Path, statement: str) -> list[Path]:
+    """The files an OBJ's material files name in ``statement`` (``map_kd`` or ``norm``)."""
+    return [
+        m
+        for mtl in _obj_materials(Path(obj))
+        if mtl.is_file()
+        for m in mtl_maps(mtl).get(statement, [])
+    ]
+
+
 def _gltf_json(path: Path) -> dict:
     """The JSON of a ``.gltf`` file or of a ``.glb``'s first chunk ({} when unreadable)."""
     try:

@@ -107,7 +107,7 @@ class Asset:
             (None: no colour map; the detailed mesh's interpolated vertex normals).
         references: ``(mi, views, split, cfg) -> (N, W, W, 4)`` reference renders.
         to_asset: ``(4, 4)`` from the stage's frame back to the asset file's (uniform
-            scale and translation; identity for the built-in cases).
+            scale and translation); None for the built-in cases, made in the stage's frame.
     """
 
     vertices: np.ndarray
@@ -117,7 +117,7 @@ class Asset:
     colour_fn: AttributeFn | None
     normal_fn: AttributeFn | None
     references: Callable[[ModuleType, list[View], str, dict], np.ndarray]
-    to_asset: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(4))
+    to_asset: np.ndarray | None = None
 
 
 def head_asset(cfg: dict) -> Asset:

@@ -10,6 +10,8 @@ LDR mode, lower is better); plus the silhouette coverage error: pixels covered
 pixels (Fig. 5, top). Variants, at the same triangle count and texture size: ``qem``
 (decimated mesh with the reference's material, baked classically where it has colours),
 ``baked`` (plus a classically baked normal map) and ``ours`` (optimised through Mitsuba).
+For user assets also ``ours_glb`` and ``ours_obj``: ours as exported and read back
+(:func:`neurender.simplify.export.reimport`), rendered the same way.
 """
 
 from __future__ import annotations
@@ -22,10 +24,12 @@ import torch
 
 from neurender import io, metrics
 from neurender.display import srgb
-from neurender.simplify import formats, render, terminator, views
+from neurender.simplify import export, formats, render, terminator, views
 from neurender.tables import tidy_rows
 
 VARIANTS = ("qem", "baked", "ours")
+#: Exported files read back and rendered, by variant name (user assets).
+EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
 
 
 def coverage_error(alpha: np.ndarray, reference_alpha: np.ndarray) -> tuple[float, float]:
@@ -75,10 +79,24 @@ def variant_shape(mi: ModuleType, variant: str, files: dict, constant_albedo: fl
     return render.atlas_shape(mi, low, render.material(mi, albedo, normal_map), positions)
 
 
+def exported_shape(mi: ModuleType, path: str, lowpoly: str):
+    """The Mitsuba mesh of an exported GLB or OBJ read back into the stage's frame (the
+    frame map stored with the case's ``lowpoly`` file)."""
+    low, albedo, normal_map = export.reimport(path, formats.load_to_asset(lowpoly))
+    return render.atlas_shape(mi, low, render.material(mi, albedo, normal_map))
+
+
 def evaluate_case(
-    mi: ModuleType, dr: ModuleType, case: str, files: dict, cfg: dict, constant_albedo
+    mi: ModuleType,
+    dr: ModuleType,
+    case: str,
+    files: dict,
+    cfg: dict,
+    constant_albedo,
+    exports: dict | None = None,
 ) -> tuple[list[dict], tuple[np.ndarray, dict[str, np.ndarray]]]:
-    """Render every variant of one case from its test views.
+    """Render every variant of one case from its test views (and the ``exports``, the
+    ``glb`` and ``obj`` files of :data:`EXPORTED`, when given).
 
     Returns:
         tidy rows (one per view and metric) and, for the comparison figure, the reference
@@ -87,10 +105,15 @@ def evaluate_case(
     test_views = views.views_from_frame(io.read_csv(files["test_views"]))
     references = formats.read_images(files["test_images"])
     rows, renders = [], {}
-    for variant in VARIANTS:
+    for variant in VARIANTS + (tuple(EXPORTED) if exports else ()):
+        shape = (
+            exported_shape(mi, exports[EXPORTED[variant]], files["lowpoly"])
+            if variant in EXPORTED
+            else variant_shape(mi, variant, files, constant_albedo)
+        )
         renders[variant] = render.render_views(
             mi,
-            variant_shape(mi, variant, files, constant_albedo),
+            shape,
             test_views,
             cfg["resolution"],
             cfg["eval_spp"],

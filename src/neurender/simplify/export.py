@@ -360,12 +360,7 @@ def reimport(path: str | Path, to_asset: np.ndarray) -> tuple[LowPolyMesh, np.nd
     part = mesh.parts[0]
     normal_values = part.normal_texture
     if normal_values is None and Path(path).suffix.lower() == ".obj":
-        maps = [
-            m
-            for _, mtl in asset_files.references(path)
-            if mtl.suffix.lower() == ".mtl"
-            for m in asset_files.mtl_maps(mtl).get("norm", [])
-        ]
+        maps = asset_files.obj_maps(path, "norm")
         if maps:
             normal_values = user_mesh.image_values(Image.open(maps[0]))
     if normal_values is None:

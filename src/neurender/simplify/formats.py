@@ -3,9 +3,10 @@
 * View stacks: ``(N, H, W, 4)`` float32 RGBA images (linear radiance, alpha = coverage) as
   one EXR with channels ``v000.R`` ... ``vNNN.A``.
 * Low-poly meshes: ``.npz`` with the welded ``positions``/``faces`` and the atlas
-  ``vmap``/``uvs``/``uv_faces`` of :class:`neurender.simplify.mesh_ops.LowPolyMesh`.
+  ``vmap``/``uvs``/``uv_faces`` of :class:`neurender.simplify.mesh_ops.LowPolyMesh`; for a
+  user asset also ``to_asset``, the ``(4, 4)`` map from the stage's frame to the file's.
 * Textures: ``(T, T, 3)`` values in [0, 1] as 16-bit RGB PNG, row 0 at ``v = 0``.
-* The portable result: OBJ + MTL + albedo PNG of the atlas mesh, written by trimesh.
+* The portable result (GLB, OBJ + MTL + PNGs): :mod:`neurender.simplify.export`.
 """
 
 from __future__ import annotations
@@ -13,8 +14,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import trimesh
-from PIL import Image
 
 from neurender import io
 from neurender.simplify.mesh_ops import LowPolyMesh
@@ -41,7 +40,9 @@ def read_images(path: str | Path) -> np.ndarray:
     return np.stack([np.stack([data[f"v{i:03d}.{c}"] for c in CHANNELS], -1) for i in range(n)])
 
 
-def save_lowpoly(path: str | Path, low: LowPolyMesh) -> None:
+def save_lowpoly(path: str | Path, low: LowPolyMesh, to_asset: np.ndarray | None = None) -> None:
+    """``to_asset`` is stored only when given (user assets)."""
+    extra = {} if to_asset is None else {"to_asset": to_asset}
     io.save_npz(
         path,
         positions=low.positions,
@@ -49,12 +50,18 @@ def save_lowpoly(path: str | Path, low: LowPolyMesh) -> None:
         vmap=low.vmap,
         uvs=low.uvs,
         uv_faces=low.uv_faces,
+        **extra,
     )
 
 
 def load_lowpoly(path: str | Path) -> LowPolyMesh:
     d = io.load_npz(path)
     return LowPolyMesh(d["positions"], d["faces"], d["vmap"], d["uvs"], d["uv_faces"])
+
+
+def load_to_asset(path: str | Path) -> np.ndarray:
+    """The ``(4, 4)`` stage-to-file map of a low-poly file (identity when it has none)."""
+    return io.load_npz(path).get("to_asset", np.eye(4))
 
 
 def write_texture(path: str | Path, texture: np.ndarray) -> None:
@@ -65,35 +72,3 @@ def write_texture(path: str | Path, texture: np.ndarray) -> None:
 def read_texture(path: str | Path) -> np.ndarray:
     """A texture written by :func:`write_texture` as ``(T, T, 3)`` float64 in [0, 1]."""
     return io.read_png(path)[..., :3].astype(np.float64) / 65535.0
-
-
-def write_obj(
-    paths: dict[str, str | Path], low: LowPolyMesh, positions: np.ndarray, albedo: np.ndarray
-) -> None:
-    """The atlas mesh at welded ``positions (V, 3)`` as a textured OBJ: ``paths["obj"]``
-    refers to the material file ``paths["mtl"]``, which refers to the albedo texture
-    ``paths["texture"]`` (8-bit PNG), all three in one folder and each written atomically
-    (trimesh's exporter returns the files instead of writing them beside the OBJ)."""
-    mtl, texture = Path(paths["mtl"]), Path(paths["texture"])
-    if len({Path(p).parent for p in paths.values()}) != 1:
-        raise ValueError(f"OBJ, MTL and texture must share a folder; got {paths}")
-    material = trimesh.visual.material.SimpleMaterial(
-        image=Image.fromarray(io.to_uint8(albedo)), name=texture.stem
-    )
-    textured = trimesh.Trimesh(
-        positions[low.vmap],
-        low.uv_faces,
-        process=False,
-        visual=trimesh.visual.TextureVisuals(uv=low.uvs, material=material),
-    )
-    text, files = trimesh.exchange.obj.export_obj(
-        textured, include_texture=True, mtl_name=mtl.name, return_texture=True
-    )
-    expected = {mtl.name, texture.name}
-    if set(files) != expected:
-        raise RuntimeError(f"trimesh wrote {sorted(files)}, expected {sorted(expected)}")
-    for path, data in ((paths["obj"], text.encode()), (mtl, files[mtl.name])):
-        with io.atomic_path(path) as tmp:
-            tmp.write_bytes(data)
-    with io.atomic_path(texture) as tmp:
-        tmp.write_bytes(files[texture.name])

@@ -2,8 +2,9 @@
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
 ``(inputs, outputs, params, threads)``. Use cases: ``head`` (normal-map baking and joint
-simplification of the detailed head, grey Lambertian) and ``metaballs`` (a ray-marched
-implicit surface converted to a textured mesh: albedo and normal maps); see
+simplification of the detailed head, grey Lambertian), ``metaballs`` (a ray-marched
+implicit surface converted to a textured mesh: albedo and normal maps) and each user asset
+(a mesh file with its material, ``params["asset"]``, also a textured mesh); see
 :mod:`neurender.simplify.assets`.
 """
 
@@ -18,9 +19,11 @@ from neurender import io
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.simplify import (
     CASE_FILES,
+    EXPORT_FILES,
     assets,
     bake,
     evaluate,
+    export,
     figures,
     formats,
     mesh_ops,
@@ -60,7 +63,7 @@ def simplify_prepare(inputs: dict, outputs: dict, params: dict, threads: int) ->
         io.write_csv(outputs[f"{split}_views"], views.views_frame(split_views))
     v, f = mesh_ops.decimate(asset.vertices, asset.faces, asset.triangles)
     low = mesh_ops.uv_atlas(v, f, params["texture_size"])
-    formats.save_lowpoly(outputs["lowpoly"], low)
+    formats.save_lowpoly(outputs["lowpoly"], low, asset.to_asset)
     normal_map, colour_map = bake.bake(
         low, asset.vertices, asset.faces, params["texture_size"], asset.colour_fn, asset.normal_fn
     )
@@ -85,7 +88,10 @@ def simplify_prepare(inputs: dict, outputs: dict, params: dict, threads: int) ->
 
 def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The QEM mesh's vertices and normal map (and, where the colour
-    varies, its albedo map) optimised through Mitsuba against the training references."""
+    varies, its albedo map) optimised through Mitsuba against the training references;
+    the result also as GLB and OBJ + MTL + PNGs in the asset's own units. The albedo map
+    starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
+    of their own albedo), else from grey."""
     case = params["case"]
     mi, dr = require_mitsuba(params["device"])
     # One Dr.Jit thread makes the gradient scatter-adds, and so the result, deterministic.
@@ -96,7 +102,12 @@ def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -
     size = params["texture_size"]
     flat = np.broadcast_to([0.5, 0.5, 1.0], (size, size, 3)).copy()
     constant = assets.constant_albedo(case)
-    albedo = constant if constant is not None else np.full((size, size, 3), 0.5)
+    if "initial_albedo" in inputs:
+        # A user asset's own texture (or colours), transferred to the atlas by the classic
+        # bake, is the initial guess (paper 3: "texture maps from the reference scene").
+        albedo = formats.read_texture(inputs["initial_albedo"])
+    else:
+        albedo = constant if constant is not None else np.full((size, size, 3), 0.5)
     settings = OptimiseConfig.from_stage(params, optimise_albedo=constant is None)
     positions, normal_map, albedo_map, loss = optimise(
         mi, dr, low, flat, albedo, references, train_views, settings
@@ -108,20 +119,27 @@ def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -
     formats.write_texture(outputs["albedo"], albedo_map)
     loss.insert(0, "case", case)
     io.write_csv(outputs["loss"], loss)
-    obj_files = {k: outputs[k] for k in ("obj", "mtl", "texture")}
-    formats.write_obj(obj_files, low, positions, albedo_map)
+    files = {k: outputs[k] for k in ("glb", "obj", "mtl", "texture", "normal_texture")}
+    to_asset = formats.load_to_asset(inputs["lowpoly"])
+    export.export(files, low, positions, albedo_map, normal_map, to_asset)
 
 
 def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant of every case rendered from its held-out views;
-    the metrics, figures, per-case statistics with the stage's timings, and the targets."""
+    """Every variant of every case rendered from its held-out views (for user assets also
+    the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
+    the stage's timings, and the targets."""
     started = time.perf_counter()
     mi, dr = require_mitsuba(params["device"])
     rows, crops = [], {}
     for case in params["cases"]:
         files = {kind: inputs[f"{case}_{kind}"] for kind in CASE_FILES}
+        exports = (
+            {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
+            if case in params["user_assets"]
+            else {}
+        )
         case_rows, crops[case] = evaluate.evaluate_case(
-            mi, dr, case, files, params, assets.constant_albedo(case)
+            mi, dr, case, files, params, assets.constant_albedo(case), exports
         )
         rows += case_rows
     frame = pd.DataFrame(rows)

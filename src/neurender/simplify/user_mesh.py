@@ -10,7 +10,7 @@ in files, QEM and smooth normals need them joined).
 What is read of a material, the base colour (albedo) only:
 
 * glTF: ``baseColorTexture`` times ``baseColorFactor``, or the factor alone, or ``COLOR_0``
-  (times the factor) when there is no texture;
+  when there is no texture;
 * OBJ/MTL: ``map_Kd`` (``Kd`` is ignored when there is a texture, as Blender's importer
   does), else ``Kd``;
 * PLY/OFF: vertex or face colours;
@@ -21,9 +21,9 @@ normals are the area-weighted vertex normals of the welded surface (the file's o
 normals are ignored). Every surface is a Lambertian reflector of that albedo.
 
 Colour spaces: textures and 8-bit vertex colours in files are sRGB-encoded and decoded
-here (:func:`linear_from_srgb`); glTF's ``baseColorFactor`` and ``COLOR_0`` and MTL's
-``Kd`` are linear, as their specifications (and Blender) use them. Everything this module
-returns is linear, as Mitsuba's reflectance is.
+here (:func:`neurender.display.linear_from_srgb`); glTF's ``baseColorFactor`` and
+``COLOR_0`` and MTL's ``Kd`` are linear, as their specifications (and Blender) use them.
+Everything this module returns is linear, as Mitsuba's reflectance is.
 
 Texture conventions (those of :mod:`neurender.simplify.render`): arrays ``(H, W, 3)``
 with row 0 the image's top row, texture coordinates ``(u, v)`` with ``v`` pointing down the
@@ -41,6 +41,7 @@ import trimesh
 from PIL import Image
 
 from neurender import mitsuba_setup
+from neurender.display import linear_from_srgb
 from neurender.geometry import vertex_normals
 from neurender.simplify import asset_files
 
@@ -52,12 +53,6 @@ FLAT_TOLERANCE = 1e-6
 
 class AssetFileError(ValueError):
     """A user asset that cannot be simplified; the message names the file and what was found."""
-
-
-def linear_from_srgb(x: np.ndarray) -> np.ndarray:
-    """The inverse sRGB transfer function: encoded values in [0, 1] to linear."""
-    x = np.clip(x, 0.0, 1.0)
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
 
 
 def image_values(image: Image.Image) -> np.ndarray:
@@ -329,18 +324,11 @@ def load(path: str | Path) -> UserMesh:
         found = ", ".join(f"{type(g).__name__} of {len(g.vertices)} vertices" for g in geometries)
         raise AssetFileError(f"{path}: no faces; found {found or 'no geometry'}")
     parts = [_part(m, linear_colours=suffix in (".glb", ".gltf")) for m in meshes]
-    if (
-        suffix == ".obj"
-        and any(
-            "map_kd" in asset_files.mtl_maps(t)
-            for _, t in asset_files.references(path)
-            if t.suffix.lower() == ".mtl"
-        )
-        and not any(p.kind == "texture" for p in parts)
-    ):
+    textures = asset_files.obj_maps(path, "map_kd") if suffix == ".obj" else []
+    if textures and not any(p.kind == "texture" for p in parts):
         raise AssetFileError(
-            f"{path}: its MTL names a base-colour texture (map_Kd) but none could be read "
-            "(an unreadable image, or no texture coordinates in the OBJ)"
+            f"{path}: its MTL names a base-colour texture ({textures[0].name}) but none could "
+            "be read (an unreadable image, or no texture coordinates in the OBJ)"
         )
     vertices = np.concatenate([p.vertices for p in parts])
     offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])

@@ -45,8 +45,14 @@ def metaballs_demo_params():
     return {**cfg, **section_keys("metaballs", ("width", "radius"))}
 
 
+def metaballs_user_scenes_file():
+    """The user's scenes CSV (its job is only asked for when one is set)."""
+    return config["metaballs"]["user_scenes"] or "metaballs.user_scenes is not set"
+
+
 def metaballs_report_tables():
     tables = ("targets", "metrics", "timing", "data")
+    tables += ("user_scenes",) if config["metaballs"]["user_scenes"] else ()
     return expand("results/metaballs/{table}.csv", table=tables)
 
 
@@ -59,5 +65,6 @@ def metaballs_report_figures():
         "frame_time_vs_balls",
         "examples",
     )
+    names += ("your_scenes",) if config["metaballs"]["user_scenes"] else ()
     figures = expand("results/metaballs/figures/{name}.png", name=names)
     return figures + ["results/metaballs/figures/demo.gif"]

@@ -4,8 +4,10 @@ from neurender.ndr import DIFFUSE_SPLITS as NDR_DIFFUSE_SPLITS
 from neurender.ndr import DIFFUSE_VARIANTS as NDR_DIFFUSE_VARIANTS
 from neurender.ndr import PARTS as NDR_PARTS
 from neurender.ndr import SPLITS as NDR_SPLITS
+from neurender.ndr import SUNLIT_SPLIT as NDR_SUNLIT_SPLIT
 from neurender.ndr import VARIANTS as NDR_VARIANT_TABLE
 from neurender.ndr import split_kind as ndr_split_kind
+from neurender.ndr.assets import mesh_files as ndr_mesh_files
 
 NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
 #: ndr keys every sample reads; a kind's or the test part's own keys.
@@ -18,11 +20,13 @@ NDR_SAMPLE_KEYS = (
     "environment_height",
     "coarse_height",
     "coarse_samples",
+    "bright_texels",
     "spp",
 )
 NDR_KIND_KEYS = {
-    "complex": ("user_probes_dir", "user_probe_fraction"),
+    "complex": ("user_probes_dir", "user_probe_fraction", "small_sun_fraction"),
     "diffuse": ("fixed_probe",),
+    "sunlit": (),
 }
 NDR_TEST_KEYS = ("reference_spp",)
 #: ndr_model keys every training reads; an architecture's own (the pix2pix GAN's too).
@@ -32,6 +36,27 @@ NDR_ARCH_KEYS = {
     "pix2pix": ("ngf", "ndf", "l1_weight", "gan_weight"),
 }
 NDR_RELIGHT_KEYS = ("mask_erosion", "relight_sample", "relight_turns")
+#: ndr keys the user objects' job reads: those that replay the test maps (objects drawn
+#: first: primitives, edge_length), render a test sample, and its own.
+NDR_USER_OBJECT_KEYS = (
+    "width",
+    "primitives",
+    "edge_length",
+    "camera_distance",
+    "fov",
+    "environment_height",
+    "coarse_height",
+    "coarse_samples",
+    "bright_texels",
+    "reference_spp",
+    "user_probes_dir",
+    "user_probe_fraction",
+    "small_sun_fraction",
+    "sunlit_samples",
+    "user_objects",
+    "user_object_defaults",
+    "user_object_maps",
+)
 
 
 def ndr_user_probe_files(wildcards):
@@ -43,9 +68,39 @@ def ndr_user_probe_files(wildcards):
     return {"user_probes": user_files(folder)}
 
 
+def ndr_user_object_files(wildcards):
+    """Each user object's files (an OBJ's MTL and textures, a glTF's buffers and images;
+    a path under results/ is the workflow's output) and the user's maps."""
+    files = {
+        f"object_{name}": (
+            [path] if path.startswith("results/") else ndr_mesh_files(path)
+        )
+        for name, path in config["ndr"]["user_objects"].items()
+    }
+    folder = config["ndr"]["user_probes_dir"]
+    if folder:
+        files["user_probes"] = user_files(folder)
+    return files
+
+
+def ndr_user_objects_params():
+    """The keys of :data:`NDR_USER_OBJECT_KEYS`, the test split's size (its maps are
+    replayed) and the mask erosion of the scores."""
+    return section_keys(
+        "ndr",
+        NDR_USER_OBJECT_KEYS,
+        ("seed", "device"),
+        test_samples=config["ndr"]["samples"]["test"],
+        mask_erosion=config["ndr_model"]["mask_erosion"],
+    )
+
+
 def ndr_splits():
+    """The splits made: the complex data, the diffuse data when a variant trains on it,
+    and the real-world-like test set unless ``ndr.sunlit_samples`` is 0."""
     diffuse = any(v in NDR_DIFFUSE_VARIANTS for v in NDR_VARIANTS)
-    return list(NDR_PARTS + (NDR_DIFFUSE_SPLITS if diffuse else ()))
+    sunlit = (NDR_SUNLIT_SPLIT,) if config["ndr"]["sunlit_samples"] else ()
+    return list(NDR_PARTS + (NDR_DIFFUSE_SPLITS if diffuse else ()) + sunlit)
 
 
 def ndr_sample_keys(split):
@@ -61,19 +116,24 @@ def ndr_sample_keys(split):
 def ndr_data_params(wildcards):
     """A split's sample keys, its sample count and its name."""
     kind, part = ndr_split_kind(wildcards.split)
-    counts = config["ndr"]["samples" if kind == "complex" else "diffuse_samples"]
+    if kind == "sunlit":
+        count = config["ndr"]["sunlit_samples"]
+    else:
+        count = config["ndr"]["samples" if kind == "complex" else "diffuse_samples"][
+            part
+        ]
     return section_keys(
         "ndr",
         ndr_sample_keys(wildcards.split),
         ("seed", "device"),
         split=wildcards.split,
-        count=counts[part],
+        count=count,
     )
 
 
 def ndr_summary_params():
-    """The furnace check's keys and the splits whose manifests are summarised."""
-    keys = ("width", "furnace_spp", "coarse_samples")
+    """The furnace and sun checks' keys and the splits whose manifests are summarised."""
+    keys = ("width", "furnace_spp", "coarse_samples", "coarse_height")
     return section_keys("ndr", keys, ("seed", "device"), splits=ndr_splits())
 
 
@@ -158,9 +218,11 @@ def ndr_targets_params():
 
 def ndr_report_tables():
     tables = ("targets", "metrics", "timing", "relighting", "furnace", "data")
+    tables += ("user_objects",) if config["ndr"]["user_objects"] else ()
     return expand("results/ndr/{table}.csv", table=tables)
 
 
 def ndr_report_figures():
     names = ("buffers", "comparison", "relighting", "training_curves")
+    names += ("your_objects",) if config["ndr"]["user_objects"] else ()
     return expand("results/ndr/figures/{name}.png", name=names)

@@ -7,6 +7,7 @@ from neurender.prt import (
 )
 
 PRT_OBJECTS = list(config["prt"]["objects"])
+PRT_USER_SEQUENCES = config["prt"]["user_sequences"]
 PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()
 PRT_LIGHT = f"results/prt/probes/{config['prt']['light']}_sh.csv"
 PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule")
@@ -35,14 +36,20 @@ def prt_probe_params(wildcards):
 
 
 def prt_geometry_image_params(wildcards):
-    keys = ("resolution", "source_vertices")
+    """Procedural objects read their vertex count; user meshes and animations do not."""
+    keys = ("resolution",)
+    if wildcards.object not in {**config["prt"]["user_meshes"], **PRT_USER_SEQUENCES}:
+        keys += ("source_vertices",)
     return prt_params(keys, top=("seed",), object=wildcards.object)
 
 
 def prt_sequence_params(wildcards):
     keys = ("frames", "experiment_points", "experiment_train_frames", "linear_range")
     keys += ("excluded_expression",)
-    return prt_params(keys, top=("seed",), object=wildcards.object)
+    extra = {}
+    if wildcards.object in PRT_USER_SEQUENCES:
+        extra["test_fraction"] = PRT_USER_SEQUENCES[wildcards.object]["test_fraction"]
+    return prt_params(keys, top=("seed",), object=wildcards.object, **extra)
 
 
 def prt_transfer_params(wildcards):
@@ -95,9 +102,7 @@ def prt_evaluate_params(wildcards):
 
 def prt_model_summary_params():
     return prt_params(
-        ("resolution", "frames", "n_bands"),
-        ("equal_quality_directions",),
-        objects=PRT_OBJECTS,
+        ("resolution", "n_bands"), ("equal_quality_directions",), objects=PRT_OBJECTS
     )
 
 
@@ -114,16 +119,33 @@ def prt_probe_source(wildcards):
     return {"source": path} if path else {}
 
 
+def prt_user_frames(name):
+    """The frame files of a user animation (and of its separate test frames), inputs of
+    the jobs that read them, so editing a frame reruns them."""
+    entry = PRT_USER_SEQUENCES[name]
+    inputs = {"frames": user_files(entry["frames"])}
+    if entry["test_frames"]:
+        inputs["test_frames"] = user_files(entry["test_frames"])
+    return inputs
+
+
 def prt_object_source(wildcards):
-    """A user mesh file is an input of its geometry-image job, so editing it reruns the job."""
+    """A user mesh file, or a user animation's frames, are inputs of the geometry-image
+    job, so editing one reruns the job."""
+    if wildcards.object in PRT_USER_SEQUENCES:
+        return prt_user_frames(wildcards.object)
     path = config["prt"]["user_meshes"].get(wildcards.object)
     return {"source": path} if path else {}
 
 
-def prt_sequence_gim(wildcards):
-    """The section 4.2.2 experiments deform the head's geometry image."""
+def prt_sequence_files(wildcards):
+    """The geometry image (the section 4.2.2 experiments deform the head's), and a user
+    animation's frames."""
     source = "head" if wildcards.object in EXPERIMENTS else wildcards.object
-    return f"results/prt/{source}/geometry_image.npz"
+    inputs = {"gim": f"results/prt/{source}/geometry_image.npz"}
+    if wildcards.object in PRT_USER_SEQUENCES:
+        inputs.update(prt_user_frames(wildcards.object))
+    return inputs
 
 
 def prt_split_files(wildcards, splits=PRT_SPLITS):

@@ -1,8 +1,12 @@
 # Helpers of workflow/rules/simplification.smk: the names, config keys and input files its rules use.
 
 from neurender.simplify import CASE_FILES as SIMPLIFY_CASE_FILES
+from neurender.simplify import EXPORT_FILES as SIMPLIFY_EXPORT_FILES
+from neurender.simplify.asset_files import asset_inputs
 
-SIMPLIFY_CASES = tuple(config["simplify"]["cases"])
+#: name -> entry (path, ratio, triangles, views); each runs as a use case of its own.
+SIMPLIFY_USER_ASSETS = config["simplify"]["user_assets"]
+SIMPLIFY_CASES = tuple(config["simplify"]["cases"]) + tuple(SIMPLIFY_USER_ASSETS)
 SIMPLIFY_RENDER_KEYS = ("resolution", "intensity")
 SIMPLIFY_PREPARE_KEYS = SIMPLIFY_RENDER_KEYS + (
     "texture_size",
@@ -35,8 +39,29 @@ SIMPLIFY_CASE_KEYS = {
 
 
 def simplify_prepare_params(wildcards):
-    keys = SIMPLIFY_PREPARE_KEYS + SIMPLIFY_CASE_KEYS[wildcards.case]
-    return section_keys("simplify", keys, ("seed", "device"), case=wildcards.case)
+    case = wildcards.case
+    if case in SIMPLIFY_USER_ASSETS:
+        return section_keys(
+            "simplify",
+            SIMPLIFY_PREPARE_KEYS,
+            ("seed", "device"),
+            case=case,
+            asset=SIMPLIFY_USER_ASSETS[case],
+        )
+    keys = SIMPLIFY_PREPARE_KEYS + SIMPLIFY_CASE_KEYS[case]
+    return section_keys("simplify", keys, ("seed", "device"), case=case)
+
+
+def simplify_prepare_inputs(wildcards):
+    """A user asset's file and the files it names (MTL, textures, glTF buffers and
+    images), so that editing any of them reruns its jobs; nothing for a built-in case.
+    An asset the workflow makes (under results/) is made with its files by one job."""
+    entry = SIMPLIFY_USER_ASSETS.get(wildcards.case)
+    if entry is None:
+        return {}
+    path = entry["path"]
+    named = [] if path.startswith("results/") else asset_inputs(path)
+    return {"asset": path, "asset_files": named}
 
 
 def simplify_optimise_params(wildcards):
@@ -45,18 +70,43 @@ def simplify_optimise_params(wildcards):
     )
 
 
+def simplify_optimise_inputs(wildcards):
+    """A user asset's albedo map starts from its classic bake (its own texture moved to
+    the new atlas); a built-in case's from grey."""
+    if wildcards.case in SIMPLIFY_USER_ASSETS:
+        return {
+            "initial_albedo": f"results/simplification/{wildcards.case}/baked_albedo.png"
+        }
+    return {}
+
+
 def simplify_evaluate_params():
-    keys = SIMPLIFY_RENDER_KEYS + ("eval_spp", "threads", "cases")
-    return section_keys("simplify", keys, ("seed", "device"))
+    keys = SIMPLIFY_RENDER_KEYS + ("eval_spp", "threads")
+    return section_keys(
+        "simplify",
+        keys,
+        ("seed", "device"),
+        cases=list(SIMPLIFY_CASES),
+        user_assets=list(SIMPLIFY_USER_ASSETS),
+    )
 
 
 def simplify_evaluate_inputs(wildcards):
-    """Every case's files, keyed ``<case>_<kind>`` as the evaluation reads them."""
-    return {
+    """Every case's files, and the user assets' exported files (read back and rendered),
+    keyed ``<case>_<kind>`` as the evaluation reads them."""
+    files = {
         f"{case}_{kind}": f"results/simplification/{case}/{name}"
         for case in SIMPLIFY_CASES
         for kind, name in SIMPLIFY_CASE_FILES.items()
     }
+    files.update(
+        {
+            f"{case}_{kind}": f"results/simplification/{case}/{name}"
+            for case in SIMPLIFY_USER_ASSETS
+            for kind, name in SIMPLIFY_EXPORT_FILES.items()
+        }
+    )
+    return files
 
 
 def simplify_report_tables():

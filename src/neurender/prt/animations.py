@@ -1,0 +1,103 @@
+"""User animations: per-frame mesh files with one shared topology (``prt.user_sequences``).
+
+A sequence is what DCC tools write with "export as mesh sequence" (Blender, Maya,
+Houdini): one file per frame, frames in the order of their names
+(:func:`neurender.prt.mesh_files`), every frame with the same vertices in the same order
+and the same triangles. Files are read as they are, without merging or reordering
+vertices (:func:`neurender.prt.objects.read_mesh`), so vertex ``i``
+is the same surface point in every frame; polygons are split into triangles the same way
+in every frame. Positions are in the files' units.
+
+The first frame is the rest pose that is parametrised (:mod:`neurender.prt.disk`,
+:mod:`neurender.prt.geometry_image`); without separate test frames the last
+``test_fraction`` of the sequence is held out (extrapolation in time).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from neurender.prt import mesh_files
+from neurender.prt.objects import read_mesh
+
+
+@dataclasses.dataclass
+class Frames:
+    """Frames of one animation with their shared topology.
+
+    Attributes:
+        files: the frame files in order.
+        positions: ``(F, V, 3)`` float64 vertex positions per frame.
+        faces: ``(T, 3)`` int64 triangles of every frame.
+    """
+
+    files: list[Path]
+    positions: np.ndarray
+    faces: np.ndarray
+
+
+def load_frames(
+    files: list[Path], what: str, reference: tuple[Path, np.ndarray, np.ndarray] | None = None
+) -> Frames:
+    """Read frame files and check they share one topology, up front.
+
+    Args:
+        files: frame files in order (at least one).
+        what: the config entry they come from, for messages.
+        reference: ``(file, positions, faces)`` of the rest frame when ``files`` are
+            other frames of the same animation (its test frames).
+
+    Raises:
+        ValueError naming the first file whose vertex or triangle count, or triangles,
+        differ from the rest frame's, with both counts.
+    """
+    if not files:
+        raise ValueError(f"{what}: no mesh files found")
+    positions = []
+    ref_file, ref_vertices, ref_faces = reference or (files[0], *read_mesh(files[0]))
+    for path in files:
+        vertices, faces = (ref_vertices, ref_faces) if path == ref_file else read_mesh(path)
+        if len(vertices) != len(ref_vertices) or len(faces) != len(ref_faces):
+            raise ValueError(
+                f"{what}: frame {path} has {len(vertices)} vertices and {len(faces)} "
+                f"triangles, but the rest frame {ref_file} has {len(ref_vertices)} vertices "
+                f"and {len(ref_faces)} triangles; every frame needs the same vertices and "
+                "triangles (export the animation as a mesh sequence, without modifiers that "
+                "change the topology)"
+            )
+        differ = np.nonzero((faces != ref_faces).any(axis=1))[0]
+        if len(differ):
+            raise ValueError(
+                f"{what}: frame {path} has {len(vertices)} vertices and {len(faces)} triangles "
+                f"like the rest frame {ref_file}, but {len(differ)} triangles join other "
+                f"vertices (the first is triangle {differ[0]}); every frame needs the same "
+                "triangles"
+            )
+        positions.append(vertices)
+    return Frames(list(files), np.stack(positions), ref_faces)
+
+
+def load_sequence(
+    frames: list[str], test_frames: list[str], what: str
+) -> tuple[Frames, Frames | None]:
+    """The frames (and the separate test frames, if any) of one user sequence, checked
+    against the rest frame (the first of ``frames``).
+
+    Args:
+        frames, test_frames: folders, globs or files (:func:`neurender.prt.mesh_files`).
+        what: the config entry, for messages.
+    """
+    sequence = load_frames(mesh_files(frames), f"{what}.frames")
+    if not test_frames:
+        return sequence, None
+    rest = (sequence.files[0], sequence.positions[0], sequence.faces)
+    return sequence, load_frames(mesh_files(test_frames), f"{what}.test_frames", rest)
+
+
+def held_out(frames: int, test_fraction: float) -> int:
+    """Frames at the end of a sequence held out for testing: ``round(fraction x frames)``,
+    at least one."""
+    return max(1, round(test_fraction * frames))
