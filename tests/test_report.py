@@ -61,3 +61,23 @@ def test_table_cells_are_escaped(tmp_path):
     )
     report.build_report([res / "targets.csv"], [], tmp_path / "r.html")
     assert "error &lt;= 15 deg &amp; &lt;b&gt;" in (tmp_path / "r.html").read_text()
+
+
+def _tidy(rows):
+    return pd.DataFrame(
+        [("ndr", "complex", m, "test", metric, v) for m, metric, v in rows],
+        columns=["method", "dataset", "model", "split", "metric", "value"],
+    )
+
+
+def test_training_budget_says_equal_only_when_every_model_had_the_same_epochs():
+    equal = _tidy([("ndr", "epochs", 8), ("pix2pix", "epochs", 8), ("ndr", "dssim", 0.1)])
+    assert "equal, 8 epochs" in report.training_budget(equal)
+    assert "ndr, pix2pix" in report.training_budget(equal)
+    unequal = _tidy([("ndr", "epochs", 8), ("pix2pix", "epochs", 2)])
+    assert report.training_budget(unequal) == (
+        "Training budget: unequal, epochs per learned model: ndr 8; pix2pix 2."
+    )
+    per_material = _tidy([("DeepPRT", "epochs_diffuse", 12), ("DeepPRT", "epochs_glossy", 10)])
+    assert "unequal" in report.training_budget(per_material)
+    assert report.training_budget(_tidy([("ndr", "dssim", 0.1)])) == ""

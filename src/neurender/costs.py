@@ -108,16 +108,18 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     w = ndr["width"]
     if rule == "ndr_data":
         kind, _, part = split.rpartition("_")
-        count = (ndr["diffuse_samples"] if kind else ndr["samples"])[part]
+        if kind == "sunlit":
+            count = ndr["sunlit_samples"]
+        else:
+            count = (ndr["diffuse_samples"] if kind else ndr["samples"])[part]
         spp = ndr["spp"] + (ndr["reference_spp"] if part == "test" else 0)
         return count * w * w * (spp + ndr["coarse_samples"]) / 1e6, w * w / 1e3
     if rule == "ndr_train":
         variant = wildcards.get("variant", "ndr")
         diffuse = variant in ("ndr_diffuse", "real_shading")
         count = (ndr["diffuse_samples"] if diffuse else ndr["samples"])["train"]
-        epochs = nm["epochs"] if variant in ("ndr", "ndr_diffuse") else nm["baseline_epochs"]
         pixels = count * w * w
-        return epochs * pixels * unet_work(nm["widths"]) / 1e6, pixels * 30 * 4 / 1e6
+        return nm["epochs"] * pixels * unet_work(nm["widths"]) / 1e6, pixels * 30 * 4 / 1e6
     if rule in ("ndr_evaluate", "ndr_relight"):
         tests = ndr["samples"]["test"] + ndr["diffuse_samples"]["test"]
         return tests * w * w * len(nm["variants"]) / 1e6, tests * w * w * 40 / 1e6
@@ -132,7 +134,7 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         variant = wildcards.get("variant", "pix2pix")
         gan = 3.7 if variant == "pix2pix" else 1.0
         flips = 4 if mm["flips"] else 1
-        steps = mm["epochs"][variant] * flips * mb["examples"]["train"]
+        steps = mm["epochs"] * flips * mb["examples"]["train"]
         return steps * w * w * mm["ngf"] ** 2 * gan / 1e9, mb["examples"][
             "train"
         ] * w * w * 12 / 1e6

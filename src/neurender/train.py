@@ -387,6 +387,11 @@ def history_frame(history: list[Mapping[str, Any]]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["epoch", "split", "metric", "value"])
 
 
+def epochs_trained(path: str | Path) -> int:
+    """Epochs a finished run of :func:`fit` trained (its budget, for comparison tables)."""
+    return len(load_checkpoint(path)["history"])
+
+
 def load_checkpoint(path: str | Path, device: torch.device | str = "cpu") -> dict[str, Any]:
     """Load a checkpoint written by :func:`fit`, naming the file on failure."""
     p = Path(path)

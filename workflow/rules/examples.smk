@@ -21,6 +21,8 @@ rule example_assets:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("example_assets"),
     params:
         cfg={"seed": config["seed"]},
     script:

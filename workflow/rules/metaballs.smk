@@ -17,6 +17,8 @@ rule metaballs_examples:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_examples"),
     params:
         cfg=metaballs_examples_params,
     script:
@@ -43,6 +45,8 @@ rule metaballs_summary:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("metaballs_summary"),
     params:
         cfg={},
     script:
@@ -70,7 +74,7 @@ rule metaballs_train:
         "../envs/neurender.yaml"
     threads: config["metaballs_model"]["threads"]
     resources:
-        gpu=1,
+        **scheduler_resources("metaballs_train"),
     params:
         cfg=metaballs_train_params,
     script:
@@ -104,6 +108,8 @@ rule metaballs_evaluate:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_evaluate"),
     params:
         cfg=metaballs_evaluate_params(),
     script:
@@ -146,6 +152,8 @@ rule metaballs_demo:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_demo"),
     params:
         cfg=metaballs_demo_params(),
     script:
@@ -165,6 +173,8 @@ rule metaballs_targets:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("metaballs_targets"),
     params:
         cfg=section_keys("metaballs", ("width",)),
     script:
@@ -189,6 +199,8 @@ rule metaballs_user_scenes:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_user_scenes"),
     params:
         cfg=metaballs_evaluate_params(),
     script:

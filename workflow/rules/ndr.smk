@@ -19,6 +19,8 @@ rule ndr_data:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_data"),
     params:
         cfg=ndr_data_params,
     script:
@@ -44,6 +46,8 @@ rule ndr_summary:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("ndr_summary"),
     params:
         cfg=ndr_summary_params(),
     script:
@@ -66,7 +70,7 @@ rule ndr_train:
         "../envs/neurender.yaml"
     threads: config["ndr_model"]["threads"]
     resources:
-        gpu=1,
+        **scheduler_resources("ndr_train"),
     params:
         cfg=ndr_train_params,
     script:
@@ -97,6 +101,8 @@ rule ndr_evaluate:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_evaluate"),
     params:
         cfg=ndr_evaluate_params(),
     script:
@@ -116,6 +122,8 @@ rule ndr_targets:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("ndr_targets"),
     params:
         cfg=ndr_targets_params(),
     script:
@@ -140,6 +148,8 @@ rule ndr_relight:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_relight"),
     params:
         cfg=ndr_relight_params,
     script:
@@ -165,6 +175,8 @@ rule ndr_user_objects:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_user_objects"),
     params:
         cfg=ndr_user_objects_params(),
     script:

@@ -18,6 +18,8 @@ rule prt_probe:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_probe"),
     params:
         cfg=prt_probe_params,
     script:
@@ -37,6 +39,8 @@ rule prt_geometry_image:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_geometry_image"),
     params:
         cfg=prt_geometry_image_params,
     script:
@@ -55,6 +59,8 @@ rule prt_sequence:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_sequence"),
     params:
         cfg=prt_sequence_params,
     script:
@@ -79,6 +85,7 @@ rule prt_transfer:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
+        **scheduler_resources("prt_transfer"),
         embree=1,
     params:
         cfg=prt_transfer_params,
@@ -101,6 +108,7 @@ rule prt_noise_floor:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
+        **scheduler_resources("prt_noise_floor"),
         embree=1,
     params:
         cfg=prt_noise_floor_params,
@@ -126,6 +134,8 @@ rule prt_figure:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_figure"),
     params:
         cfg=prt_figure_params,
     script:
@@ -153,6 +163,8 @@ rule prt_summary:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_summary"),
     params:
         cfg={},
     script:
@@ -173,6 +185,7 @@ rule prt_benchmark:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
+        **scheduler_resources("prt_benchmark"),
         embree=1,
     params:
         cfg=prt_benchmark_params(),
@@ -198,6 +211,8 @@ rule prt_probes_figure:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_probes_figure"),
     params:
         cfg={},
     script:
@@ -223,7 +238,7 @@ rule prt_train:
         "../envs/neurender.yaml"
     threads: config["prt_model"]["threads"]
     resources:
-        gpu=1,
+        **scheduler_resources("prt_train"),
     params:
         cfg=prt_train_params,
     script:
@@ -242,6 +257,8 @@ rule prt_momoprt:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_momoprt"),
     params:
         cfg=prt_momoprt_params,
     script:
@@ -278,6 +295,7 @@ rule prt_evaluate:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
+        **scheduler_resources("prt_evaluate"),
         embree=1,
     params:
         cfg=prt_evaluate_params,
@@ -330,6 +348,8 @@ rule prt_model_summary:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_model_summary"),
     params:
         cfg=prt_model_summary_params(),
     script:
@@ -360,6 +380,8 @@ rule prt_experiment:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("prt_experiment"),
     params:
         cfg=prt_test_frame_params,
     script:
@@ -389,6 +411,8 @@ rule prt_relight:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("prt_relight"),
     params:
         cfg=prt_test_frame_params,
     script:

@@ -20,6 +20,8 @@ rule report:
     conda:
         "../envs/neurender.yaml"
     threads: 1
+    resources:
+        **scheduler_resources("report"),
     params:
         cfg={
             "title": config["report"]["title"],

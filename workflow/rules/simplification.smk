@@ -23,6 +23,8 @@ rule simplify_prepare:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("simplify_prepare"),
     params:
         cfg=simplify_prepare_params,
     script:
@@ -53,7 +55,7 @@ rule simplify_optimise:
         "../envs/neurender.yaml"
     threads: config["simplify"]["threads"]
     resources:
-        gpu=1,
+        **scheduler_resources("simplify_optimise"),
     params:
         cfg=simplify_optimise_params,
     script:
@@ -85,6 +87,8 @@ rule simplify_evaluate:
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
+    resources:
+        **scheduler_resources("simplify_evaluate"),
     params:
         cfg=simplify_evaluate_params(),
     script:

@@ -27,11 +27,14 @@ from neurender.metaball import Scene
 from neurender.metaballs import ab, gbuffers, inputs, scenes
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.tables import tidy_rows
+from neurender.train import epochs_trained
 
 #: Bin edges of the accuracy-by-scene table: number of balls (the last edge grows to the
 #: most balls seen) and depth gap of overlapping balls (world units).
 BALL_EDGES = [0, 5, 10, 15, 16]
 GAP_EDGES = [0, 0.5, 1, 2, 5, 20]
+#: The ``dataset`` of the held-out scenes' rows.
+TEST_DATASET = "test scenes"
 
 
 def iou(a: torch.Tensor, b: torch.Tensor) -> float:
@@ -119,7 +122,7 @@ def score_test_set(
         }
         for model, pred in preds.items():
             rows += tidy_rows(
-                "metaballs", "test scenes", model, "test", example_metrics(pred, gt), **keys
+                "metaballs", TEST_DATASET, model, "test", example_metrics(pred, gt), **keys
             )
         if showcase is None or ex["balls"] > showcase.balls:  # show the busiest scene
             showcase = Showcase(int(ex["balls"]), parts["inputs"], gt, preds)
@@ -130,6 +133,14 @@ def mean_metrics(frame: pd.DataFrame) -> pd.DataFrame:
     """Tidy per-model means over the examples of :func:`score_test_set`'s rows."""
     keys = ["method", "dataset", "model", "split", "metric"]
     return frame.groupby(keys, as_index=False, sort=False)["value"].mean()
+
+
+def budget_rows(checkpoints: dict[str, str]) -> pd.DataFrame:
+    """Tidy rows of each network's training budget (epochs trained), beside its scores."""
+    rows = []
+    for name, path in checkpoints.items():
+        rows += tidy_rows("metaballs", TEST_DATASET, name, "test", {"epochs": epochs_trained(path)})
+    return pd.DataFrame(rows)
 
 
 def binned(frame: pd.DataFrame, column: str, edges: list[float]) -> pd.DataFrame:

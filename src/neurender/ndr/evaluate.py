@@ -83,10 +83,12 @@ class SplitScores:
 
 
 def budget(name: str, kind: str, checkpoint: str, model: NDRModel) -> list[dict]:
-    """A network's training budget beside its errors: epochs trained and parameters
-    (budgets differ between variants: baselines train ``baseline_epochs``)."""
-    epochs = len(train.load_checkpoint(checkpoint)["history"])
-    values = {"epochs": float(epochs), "parameters": float(count_parameters(model.net))}
+    """A network's training budget beside its errors: epochs trained (equal for every
+    variant, ``ndr_model.epochs``) and parameters."""
+    values = {
+        "epochs": float(train.epochs_trained(checkpoint)),
+        "parameters": float(count_parameters(model.net)),
+    }
     return tidy_rows("ndr", DATASETS[kind], name, "test", values)
 
 

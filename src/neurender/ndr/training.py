@@ -78,7 +78,7 @@ def train_variant(
     :func:`neurender.train.fit`).
 
     ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
-    ``lr_schedule``, the variant's :attr:`~neurender.ndr.variants.Variant.epochs_key`, its
+    ``lr_schedule``, ``epochs`` (the same for every variant), the variant's
     :func:`~neurender.ndr.model.architecture` keys and, for ``pix2pix``, ``ndf``,
     ``l1_weight`` and ``gan_weight``.
     """
@@ -90,7 +90,7 @@ def train_variant(
     val_set = NDRDataset.from_files(val_files, cfg["mask_erosion"])
     arch = architecture(variant, cfg)
     model = NDRModel(variant, **arch)
-    config = train.TrainConfig.from_stage(cfg, threads, epochs=cfg[variant.epochs_key])
+    config = train.TrainConfig.from_stage(cfg, threads, epochs=cfg["epochs"])
     loss_fn, adversary = loss_terms, None
     if variant.arch == "pix2pix":
         config = dataclasses.replace(config, betas=(0.5, 0.999))

@@ -22,9 +22,8 @@ class Variant:
     each when ``decoders == len(targets)``); ``light``: takes the SH vector; ``residual``:
     may predict a correction to the coarse shading (see :mod:`neurender.ndr.model`);
     ``data``: ``complex`` or ``diffuse`` dataset; ``arch``: ``ndr`` (:mod:`neurender.nn.ndr`)
-    or ``pix2pix`` (:mod:`neurender.nn.pix2pix`); ``epochs_key``: the ``ndr_model`` config
-    key of its training budget (``epochs`` for the two NDR models, ``baseline_epochs`` for
-    ablations and baselines).
+    or ``pix2pix`` (:mod:`neurender.nn.pix2pix`). Every variant trains for the same
+    ``ndr_model.epochs`` (the comparison is at an equal budget).
     """
 
     inputs: tuple[str, ...]
@@ -35,7 +34,6 @@ class Variant:
     residual: bool = True
     data: str = "complex"
     arch: str = "ndr"
-    epochs_key: str = "baseline_epochs"
     description: str = ""
 
     @property
@@ -49,7 +47,6 @@ _NDR_INPUTS = ("N", "R", "D", "S_D", "S_S")
 VARIANTS: dict[str, Variant] = {
     "ndr": Variant(
         _NDR_INPUTS,
-        epochs_key="epochs",
         description="NDR (two decoders; ours: residual on S_D, S_S)",
     ),
     "ndr_direct": Variant(_NDR_INPUTS, residual=False, description="NDR as published"),
@@ -78,7 +75,6 @@ VARIANTS: dict[str, Variant] = {
     "ndr_diffuse": Variant(
         _NDR_INPUTS,
         data="diffuse",
-        epochs_key="epochs",
         description="NDR, diffuse material, fixed illumination",
     ),
     "real_shading": Variant(

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from neurender import io, lights, sh
+from neurender import io, lights, sh, train
 from neurender.prt import (
     MATERIALS,
     SPLITS,
@@ -286,7 +286,12 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
     scores = pd.DataFrame(rows)
     io.write_csv(outputs["frames"], scores)
     timing = timing_rows(name, nets["diffuse"], test, light, params, threads, scores)
-    io.write_csv(outputs["metrics"], pd.concat([aggregate(scores), timing], ignore_index=True))
+    checkpoints = zip(MATERIALS, inputs["deepprt"], strict=True)
+    budget = {f"epochs_{m}": train.epochs_trained(path) for m, path in checkpoints}
+    budget_rows = pd.DataFrame(tidy_rows("prt", name, "DeepPRT", "test", budget))
+    io.write_csv(
+        outputs["metrics"], pd.concat([aggregate(scores), timing, budget_rows], ignore_index=True)
+    )
     figures.prediction_figure(name, panels, outputs["figure"])
 
 

@@ -131,6 +131,29 @@ def _render_table(frame: pd.DataFrame) -> tuple[str, int]:
     return "\n".join(parts), rows
 
 
+def training_budget(frame: pd.DataFrame) -> str:
+    """The training budget of a tidy table's learned models, from its ``epochs`` rows
+    (metric ``epochs`` or ``epochs_<material>``): one sentence, saying whether every
+    learned model had the same budget; empty for a table without such rows."""
+    if not set(TIDY_COLUMNS) <= set(frame.columns):
+        return ""
+    rows = frame[frame.metric.astype(str).str.match(r"^epochs(_|$)")]
+    if rows.empty:
+        return ""
+    per_model = rows.groupby("model", sort=False)["value"].agg(["min", "max"])
+    if per_model["min"].nunique() == 1 and per_model["max"].nunique() == 1 and (
+        per_model["min"] == per_model["max"]
+    ).all():
+        epochs = int(per_model["min"].iloc[0])
+        models = ", ".join(per_model.index)
+        return f"Training budget: equal, {epochs} epochs for every learned model ({models})."
+    spread = "; ".join(
+        f"{m} {int(r['min'])}" + (f"-{int(r['max'])}" if r["max"] != r["min"] else "")
+        for m, r in per_model.iterrows()
+    )
+    return f"Training budget: unequal, epochs per learned model: {spread}."
+
+
 def _embed_image(path: Path) -> str:
     mime = {".png": "image/png", ".gif": "image/gif"}.get(path.suffix.lower())
     if mime is None:
@@ -201,6 +224,7 @@ def _section(section: Section, tables: list[Path], figures: list[Path], viewers:
                 "path": str(t),
                 "href": Path(*t.parts[t.parts.index(section.key) :]).as_posix(),
                 "html": body,
+                "budget": training_budget(frames[t.stem]),
                 "collapsed": rows > LONG_TABLE_ROWS and t.stem != "targets",
             }
         )
@@ -214,6 +238,7 @@ def _section(section: Section, tables: list[Path], figures: list[Path], viewers:
         "data_only": ran and "metrics" not in frames,
         "headlines": _headline_rows(section.key, frames),
         "targets": _targets(frames.get("targets")),
+        "budget": training_budget(frames["metrics"]) if "metrics" in frames else "",
         "tables": rendered,
         "figures": [{"caption": f.stem.replace("_", " "), "src": _embed_image(f)} for f in figures],
         "viewers": viewers,

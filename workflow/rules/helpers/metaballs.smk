@@ -10,7 +10,15 @@ from neurender.metaballs import (
 METABALLS_SCENE_KEYS = ("width", "balls", "radius")
 #: The keys of ``metaballs_model`` every training job reads; the GAN variants also ``ndf``
 #: and ``gan_weight`` (the others train with ``gan_weight`` 0).
-METABALLS_TRAIN_KEYS = ("ngf", "l1_weight", "flips", "batch_size", "lr", "lr_schedule")
+METABALLS_TRAIN_KEYS = (
+    "ngf",
+    "l1_weight",
+    "flips",
+    "epochs",
+    "batch_size",
+    "lr",
+    "lr_schedule",
+)
 METABALLS_GAN_KEYS = ("ndf", "gan_weight")
 METABALLS_DEMO_KEYS = ("demo_frames", "demo_balls", "timing_balls")
 
@@ -24,15 +32,12 @@ def metaballs_examples_params(wildcards):
 
 
 def metaballs_train_params(wildcards):
-    """Only the variant's own epochs, so tuning one variant never retrains another."""
+    """A variant's training keys (the GAN's only for pix2pix) and the image width."""
     variant = wildcards.variant
     gan = variant in METABALLS_GAN_VARIANTS
     keys = METABALLS_TRAIN_KEYS + (METABALLS_GAN_KEYS if gan else ())
     cfg = section_keys("metaballs_model", keys, ("seed", "device"), variant=variant)
-    cfg.update(
-        width=config["metaballs"]["width"],
-        epochs=config["metaballs_model"]["epochs"][variant],
-    )
+    cfg["width"] = config["metaballs"]["width"]
     return cfg if gan else {**cfg, "gan_weight": 0.0}
 
 

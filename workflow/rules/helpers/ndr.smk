@@ -30,7 +30,7 @@ NDR_KIND_KEYS = {
 }
 NDR_TEST_KEYS = ("reference_spp",)
 #: ndr_model keys every training reads; an architecture's own (the pix2pix GAN's too).
-NDR_TRAIN_KEYS = ("mask_erosion", "batch_size", "lr", "lr_schedule")
+NDR_TRAIN_KEYS = ("mask_erosion", "epochs", "batch_size", "lr", "lr_schedule")
 NDR_ARCH_KEYS = {
     "ndr": ("widths", "sh_hidden"),
     "pix2pix": ("ngf", "ndf", "l1_weight", "gan_weight"),
@@ -138,10 +138,10 @@ def ndr_summary_params():
 
 
 def ndr_train_params(wildcards):
-    """One variant's training keys: its own epochs and architecture (ndr.width too for
-    pix2pix; shading_residual where the variant can use it)."""
+    """One variant's training keys: the shared epochs, its architecture (ndr.width too
+    for pix2pix; shading_residual where the variant can use it)."""
     variant = NDR_VARIANT_TABLE[wildcards.variant]
-    keys = NDR_TRAIN_KEYS + (variant.epochs_key,) + NDR_ARCH_KEYS[variant.arch]
+    keys = NDR_TRAIN_KEYS + NDR_ARCH_KEYS[variant.arch]
     keys += ("shading_residual",) if variant.uses_prior else ()
     extra = {"width": config["ndr"]["width"]} if variant.arch == "pix2pix" else {}
     return section_keys(
