@@ -113,3 +113,33 @@ def mesh(
         params["vertex_texcoords"] = np.ravel(uvs).astype(np.float32)
     params.update()
     return shape
+
+
+#: Rows of Mitsuba's map per row of ours in :func:`envmap_rows` (1 of each cell's ``k``
+#: rows is an edge, the rest hold the texel's value).
+ENVMAP_SUBROWS = 4
+
+
+def envmap_rows(latlong: np.ndarray, subrows: int = ENVMAP_SUBROWS) -> np.ndarray:
+    """Our lat-long map ``(H, W, C)`` as the bitmap ``(subrows H + 1, W, C)`` to hand to
+    Mitsuba's ``envmap``, so that both agree on where each texel is.
+
+    Mitsuba's ``envmap`` interpolates its bitmap bilinearly with columns at texel centres
+    (``phi = 2 pi (c + 0.5) / W``, as ours) but rows on a grid that includes both poles
+    (``theta = pi r / (H - 1)``), not at centres (``theta = pi (r + 0.5) / H``, ours, see
+    :mod:`neurender.sh`): handed over as it is, the map would be shifted by up to half a
+    texel in elevation, and a sun in one texel would light the scene from the wrong angle.
+    Here each of our rows becomes ``subrows`` Mitsuba rows: the cell's edges hold the mean of
+    the two neighbouring texels (the poles the first and last row), the rows inside it the
+    texel itself. Mitsuba then returns our value exactly at every texel centre and in the
+    middle of each cell, blending only near the cell's edges (power is kept to first order).
+    """
+    if subrows < 2:
+        raise ValueError(f"envmap_rows: subrows must be at least 2, got {subrows}")
+    height = latlong.shape[0]
+    out = np.repeat(latlong, subrows, axis=0)
+    edges = np.concatenate([latlong[:1], 0.5 * (latlong[:-1] + latlong[1:]), latlong[-1:]], axis=0)
+    out = np.concatenate([out, latlong[-1:]], axis=0)  # subrows H + 1 rows
+    out[::subrows] = edges
+    assert out.shape[0] == subrows * height + 1
+    return np.ascontiguousarray(out, dtype=np.float32)

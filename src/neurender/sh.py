@@ -13,10 +13,12 @@ Convention (used everywhere in neurender):
 * SH are functions of unit direction vectors ``(x, y, z)`` in the world frame; ``z`` is the
   polar axis of the polynomials. Nothing here assumes which world axis is "up".
 
-Lat-long (equirectangular) maps follow Mitsuba's ``envmap`` convention, y up:
-pixel ``(row, col)`` of an ``(H, W)`` map has ``u = (col + 0.5) / W``, ``v = (row + 0.5) / H``
-and direction ``(sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi))`` with
-``theta = pi v``, ``phi = 2 pi u`` (so ``u = atan2(x, -z) / 2 pi``, ``v = acos(y) / pi``).
+Lat-long (equirectangular) maps follow Mitsuba's ``envmap`` directions, y up, with texel
+centres (Mitsuba puts its rows on a grid through both poles: hand a map over through
+:func:`neurender.mitsuba_setup.envmap_rows`): pixel ``(row, col)`` of an ``(H, W)`` map
+has ``u = (col + 0.5) / W``, ``v = (row + 0.5) / H`` and direction
+``(sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi))`` with ``theta = pi v``,
+``phi = 2 pi u`` (so ``u = atan2(x, -z) / 2 pi``, ``v = acos(y) / pi``).
 Radiance is linear (scene-referred) RGB.
 """
 

@@ -39,6 +39,7 @@ NEW_VALUES = {
     "prt.light": "sunset",
     "prt.probes": ["sky", "sunset", "studio"],
     "prt.user_probes": {},
+    "prt.user_sequences": {"wave": {"frames": "results/examples/wave", "test_fraction": 0.2}},
     "prt.experiment_train_frames": 5,
     "prt.linear_range": [-0.5, 1.5],
     "prt.excluded_expression": "smile",
@@ -52,6 +53,8 @@ NEW_VALUES = {
     "ndr.spp": 4,
     "ndr.fixed_probe": "sunset",
     "ndr.user_probes_dir": "",
+    "ndr.user_objects": {"vase": "results/examples/vase.ply", "rock": "results/examples/rock.glb"},
+    "ndr.user_object_defaults.base_colour": [0.5, 0.5, 0.5],
     "ndr_model.variants": ["ndr", "ndr_direct"],
     "ndr_model.widths": [8, 24],
     "ndr_model.lr_schedule": "constant",
@@ -60,7 +63,9 @@ NEW_VALUES = {
     "metaballs.radius": [0.5, 1.6],
     "metaballs_model.lr_schedule": "constant",
     "metaballs_model.timing_balls": [3, 21],
+    "metaballs.user_scenes": "",
     "simplify.cases": ["head"],
+    "simplify.user_assets": {"crate": {"path": "results/examples/crate.obj", "triangles": 120}},
     "report.title": "another title",
 }
 

@@ -1,7 +1,8 @@
 """HDR environment maps for NDR: random procedural ones, user EXR folders, SH and downsampling.
 
 Maps are lat-long ``(H, 2H, 3)`` float32 linear radiance in the convention of
-:mod:`neurender.sh` (Mitsuba's ``envmap``: y up, ``u = atan2(x, -z) / 2 pi``). The network's
+:mod:`neurender.sh` (y up, ``u = atan2(x, -z) / 2 pi``, texel centres; Mitsuba gets them
+through :func:`neurender.mitsuba_setup.envmap_rows`). The network's
 light input is the 5-band SH projection, 25 coefficients x RGB = 75 numbers, ordered
 coefficient-major (``k * 3 + channel``, ``k = l (l + 1) + m``).
 

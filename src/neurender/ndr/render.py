@@ -76,7 +76,7 @@ def shading_maps(
             "sensor": sensor(mi, view, width, spp),
             "environment": {
                 "type": "envmap",
-                "bitmap": mi.Bitmap(np.ascontiguousarray(environment, np.float32)),
+                "bitmap": mi.Bitmap(mitsuba_setup.envmap_rows(environment)),
             },
             "object": object_mesh(mi, obj, bsdf),
         }

@@ -141,9 +141,11 @@ def training_budget(frame: pd.DataFrame) -> str:
     if rows.empty:
         return ""
     per_model = rows.groupby("model", sort=False)["value"].agg(["min", "max"])
-    if per_model["min"].nunique() == 1 and per_model["max"].nunique() == 1 and (
-        per_model["min"] == per_model["max"]
-    ).all():
+    if (
+        per_model["min"].nunique() == 1
+        and per_model["max"].nunique() == 1
+        and (per_model["min"] == per_model["max"]).all()
+    ):
         epochs = int(per_model["min"].iloc[0])
         models = ", ".join(per_model.index)
         return f"Training budget: equal, {epochs} epochs for every learned model ({models})."
