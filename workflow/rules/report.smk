@@ -11,6 +11,10 @@ rule report:
         + ndr_report_figures()
         + metaballs_report_figures()
         + simplify_report_figures(),
+        viewers=prt_report_viewers()
+        + ndr_report_viewers()
+        + metaballs_report_viewers()
+        + simplify_report_viewers(),
     output:
         html="results/report.html",
     log:

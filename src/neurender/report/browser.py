@@ -106,10 +106,9 @@ def check_report(
     try:
         driver.get(report.resolve().as_uri())
         deadline = time.monotonic() + timeout
-        while driver.execute_script("return document.body.dataset.viewers || ''") not in (
-            "ready",
-            "failed",
-        ):
+        has_viewers = driver.execute_script("return document.querySelector('div.viewer') !== null")
+        state = "return document.body.dataset.viewers || ''"
+        while has_viewers and driver.execute_script(state) not in ("ready", "failed"):
             if time.monotonic() > deadline:
                 raise TimeoutError(f"{report}: viewers did not mount within {timeout:.0f} s")
             time.sleep(0.2)
@@ -159,6 +158,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     for e in errors:
         print(f"console error: {e}")
+    if not checks:
+        print(f"{args.report}: no interactive viewers in the report")
     return 0 if ok and checks else 1
 
 

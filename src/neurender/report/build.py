@@ -148,7 +148,8 @@ def training_budget(frame: pd.DataFrame) -> str:
     ):
         epochs = int(per_model["min"].iloc[0])
         models = ", ".join(per_model.index)
-        return f"Training budget: equal, {epochs} epochs for every learned model ({models})."
+        unit = "epoch" if epochs == 1 else "epochs"
+        return f"Training budget: equal, {epochs} {unit} for every learned model ({models})."
     spread = "; ".join(
         f"{m} {int(r['min'])}" + (f"-{int(r['max'])}" if r["max"] != r["min"] else "")
         for m, r in per_model.iterrows()

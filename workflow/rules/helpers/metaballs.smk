@@ -73,3 +73,8 @@ def metaballs_report_figures():
     names += ("your_scenes",) if config["metaballs"]["user_scenes"] else ()
     figures = expand("results/metaballs/figures/{name}.png", name=names)
     return figures + ["results/metaballs/figures/demo.gif"]
+
+
+def metaballs_report_viewers():
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
+    return []

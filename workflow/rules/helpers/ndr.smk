@@ -226,3 +226,8 @@ def ndr_report_figures():
     names = ("buffers", "comparison", "relighting", "training_curves")
     names += ("your_objects",) if config["ndr"]["user_objects"] else ()
     return expand("results/ndr/figures/{name}.png", name=names)
+
+
+def ndr_report_viewers():
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
+    return []

@@ -195,3 +195,8 @@ def prt_report_figures():
     return (
         per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
     )
+
+
+def prt_report_viewers():
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
+    return []

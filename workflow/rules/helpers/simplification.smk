@@ -129,3 +129,8 @@ def simplify_report_figures():
 
 wildcard_constraints:
     case="|".join(SIMPLIFY_CASES) or "-",
+
+
+def simplify_report_viewers():
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
+    return []
