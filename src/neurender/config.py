@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from neurender.lights import BUILTIN_PROBES
-from neurender.metaballs.user_scenes import read_user_scenes
+from neurender.metaballs.scene_file import read_user_scenes
 from neurender.ndr import assets as ndr_assets
 from neurender.prt import OBJECTS, RESERVED, user_sequence_problems
 

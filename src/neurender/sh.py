@@ -25,9 +25,12 @@ Radiance is linear (scene-referred) RGB.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
+
+if TYPE_CHECKING:  # torch is imported only by callers that pass tensors (the DAG never does)
+    import torch
 
 MAX_BANDS = 5
 
@@ -119,9 +122,11 @@ def eval_sh(dirs: np.ndarray | torch.Tensor, n_bands: int = 4) -> np.ndarray | t
             -_C43 * x * z * (x2 - 3.0 * y2),
             0.25 * _C44 * (x2 * x2 - 6.0 * x2 * y2 + y2 * y2),
         ]
-    if isinstance(dirs, torch.Tensor):
-        return torch.stack(ys, dim=-1)
-    return np.stack(ys, axis=-1)
+    if isinstance(dirs, np.ndarray):
+        return np.stack(ys, axis=-1)
+    import torch
+
+    return torch.stack(ys, dim=-1)
 
 
 def stratified_sphere_directions(n: int, rng: np.random.Generator) -> np.ndarray:

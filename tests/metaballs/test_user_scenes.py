@@ -11,12 +11,8 @@ import torch
 from neurender import config as rules
 from neurender.metaballs import raymarch
 from neurender.metaballs.model import network_inputs
-from neurender.metaballs.user_scenes import (
-    outside_training,
-    read_user_scenes,
-    score_user_scenes,
-    to_scenes,
-)
+from neurender.metaballs.scene_file import read_user_scenes
+from neurender.metaballs.user_scenes import outside_training, score_user_scenes, to_scenes
 
 BALLS = pd.DataFrame(
     {

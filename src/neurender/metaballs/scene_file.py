@@ -1,0 +1,59 @@
+"""A user's metaball scenes CSV (``metaballs.user_scenes``), read and checked.
+
+Plain numpy and pandas (no torch): the config check reads the file when the DAG is built.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from neurender import io
+
+COLUMNS = ("scene", "x", "y", "z", "radius", "r", "g", "b")
+NUMBERS = COLUMNS[1:]
+
+
+def _rows(mask: pd.Series) -> str:
+    """The file's line numbers (the header is line 1) of the rows in ``mask``, a few."""
+    lines = [str(i + 2) for i in np.flatnonzero(mask.to_numpy())]
+    return ", ".join(lines[:5]) + (f" and {len(lines) - 5} more" if len(lines) > 5 else "")
+
+
+def read_user_scenes(path: str | Path) -> pd.DataFrame:
+    """The balls of a scenes CSV, checked: columns :data:`COLUMNS` (``scene`` as text,
+    the rest float64), in file order.
+
+    Raises:
+        ValueError: naming the file and the lines: a missing column, no rows, a value
+            that is not a finite number, a radius <= 0, a colour outside [0, 1], a centre
+            not in front of the camera (z <= 0).
+        OSError: a file that does not exist or does not parse as CSV.
+    """
+    frame = io.read_csv(path, COLUMNS)
+    if frame.empty:
+        raise ValueError(f"metaball scenes {path} has no rows (one row per ball)")
+    out = pd.DataFrame({"scene": frame["scene"].astype(str)})
+    for column in NUMBERS:
+        values = pd.to_numeric(frame[column], errors="coerce").astype(float)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise ValueError(
+                f"metaball scenes {path}: column {column} is not a finite number on line(s) "
+                f"{_rows(bad)}"
+            )
+        out[column] = values
+    checks = (
+        (out["radius"] <= 0, "radius must be > 0"),
+        (
+            ~out[["r", "g", "b"]].apply(lambda c: c.between(0, 1)).all(axis=1),
+            "r, g, b must lie in [0, 1]",
+        ),
+        (out["z"] <= 0, "z must be > 0 (in front of the camera, which looks along +z)"),
+    )
+    for bad, rule in checks:
+        if bad.any():
+            raise ValueError(f"metaball scenes {path}: {rule}; not so on line(s) {_rows(bad)}")
+    return out
