@@ -21,6 +21,7 @@ from neurender.metaballs import (
     demo,
     evaluate,
     figures,
+    scene_file,
     speed,
     summary,
     training,
@@ -113,7 +114,7 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     """The user's scenes (``scenes``, a CSV of balls) rendered by every variant
     (``checkpoints`` in the order of :data:`VARIANTS`), the sphere baselines and the ray
     marcher at width ``width``: the test set's metrics per scene and the figure."""
-    balls = user_scenes.read_user_scenes(inputs["scenes"])
+    balls = scene_file.read_user_scenes(inputs["scenes"])
     for note in user_scenes.outside_training(balls):
         log.warning("%s: %s", inputs["scenes"], note)
     renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
