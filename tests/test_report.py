@@ -2,6 +2,7 @@ import numpy as np
 import pandas as pd
 
 from neurender import io
+from neurender.deployment import deployment_row, deployment_table
 from neurender.report import build as report
 
 
@@ -81,3 +82,46 @@ def test_training_budget_says_equal_only_when_every_model_had_the_same_epochs():
     per_material = _tidy([("DeepPRT", "epochs_diffuse", 12), ("DeepPRT", "epochs_glossy", 10)])
     assert "unequal" in report.training_budget(per_material)
     assert report.training_budget(_tidy([("ndr", "dssim", 0.1)])) == ""
+
+
+def _deployment(path, method: str, networks: list[str], ms: float) -> None:
+    measured = {
+        "parameters": 12345,
+        "onnx_bytes": 52_000,
+        "max_abs_diff_vs_pytorch": 2e-7,
+        "ms_per_frame_onnxruntime": ms,
+        "ms_per_frame_pytorch": 2 * ms,
+    }
+    rows = [
+        deployment_row(method, n, f"{n}.onnx", (64, 64), measured, 2, "Test CPU, 2 threads")
+        for n in networks
+    ]
+    io.write_csv(path, deployment_table(rows))
+
+
+def test_the_summary_sets_every_deployed_network_beside_the_papers_times(tmp_path):
+    tables = [tmp_path / "results" / m / "deployment.csv" for m in ("ndr", "prt")]
+    _deployment(tables[0], "ndr", ["ndr", "pix2pix"], 3.25)
+    _deployment(tables[1], "prt", ["head diffuse", "head glossy"], 1.5)
+    report.build_report(tables, [], tmp_path / "r.html")
+    page = (tmp_path / "r.html").read_text()
+    summary = page[page.index('id="deployment"') : page.index('<h2 id="prt">')]
+    ours = summary[: summary.index("The papers' network times")]
+    papers = summary[summary.index("The papers' network times") :]
+    # One row per network, methods in report order (DeepPRT first), both engines' times.
+    assert ours.index("head diffuse") < ours.index("head glossy") < ours.index(">pix2pix<")
+    assert ours.count("</tr>") == 1 + 4
+    for value in ("1.5", "3", "3.25", "6.5", "12,345", "52 kB", "2e-07", "64x64"):
+        assert f"<td>{value}</td>" in ours
+    assert "<strong>Test CPU, 2 threads</strong>" in ours
+    # Beside them the published times with their hardware; no metaballs row (not deployed).
+    assert papers.count("</tr>") == 1 + 2
+    assert "<td>45</td>" in papers and "NVIDIA RTX 2080" in papers
+    assert "<td>6</td>" in papers and "hardware not stated" in papers
+    assert "<td>11,800,000</td>" in papers and "not stated</td>" in papers
+    assert "GTX 1080" not in papers
+
+
+def test_no_deployment_table_without_deployed_networks(tmp_path):
+    report.build_report([], [], tmp_path / "r.html")
+    assert 'id="deployment"' not in (tmp_path / "r.html").read_text()

@@ -52,6 +52,7 @@ _MODEL_RULES = {
     "prt_model_summary",
     "prt_experiment",
     "prt_relight",
+    "prt_viewer",
 }
 
 
@@ -101,6 +102,10 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         )
         renders = (frames["val"] + frames["test"]) * pm["render_resolution"] ** 2 * 8
         return (rays + renders) / 1e6, (frames["val"] + frames["test"]) * n * n * 60 / 1e6
+    if rule == "prt_viewer":  # the test split read, one frame predicted
+        return frames["test"] * n * n / 1e6, frames["test"] * n * n * 60 / 1e6
+    if rule == "prt_mesh_figure":
+        return sum(frames.values()) * n * n / 1e6, n * n / 1e3
     if rule == "prt_momoprt":
         pixels = (frames["train"] + frames["val"]) * n * n
         return pixels * prt["n_bands"] ** 2 / 1e6, pixels * prt["n_bands"] ** 2 * 3 / 1e6
@@ -123,8 +128,14 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     if rule in ("ndr_evaluate", "ndr_relight"):
         tests = ndr["samples"]["test"] + ndr["diffuse_samples"]["test"]
         return tests * w * w * len(nm["variants"]) / 1e6, tests * w * w * 40 / 1e6
+    if rule == "ndr_viewer":  # one test sample per turn (neurender.viewer_data.TURNS: 24)
+        spp = ndr["spp"] + ndr["reference_spp"] + ndr["coarse_samples"]
+        return 24 * w * w * spp / 1e6, 24 * w * w * 40 / 1e6
     if rule == "ndr_summary":
         return ndr["furnace_spp"] * w * w / 1e6, 0.0
+    if rule == "ndr_deploy":  # per network: an export, and 2 x 23 timed frames
+        networks = len({"ndr", *nm["variants"]})
+        return networks * (1 + w * w * unet_work(nm["widths"]) / 1e3), w * w / 1e3
     mb, mm = cfg["metaballs"], cfg["metaballs_model"]
     w = mb["width"]
     if rule == "metaballs_examples":
@@ -138,6 +149,10 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         return steps * w * w * mm["ngf"] ** 2 * gan / 1e9, mb["examples"][
             "train"
         ] * w * w * 12 / 1e6
+    if rule == "metaballs_deploy":  # per network (metaballs.VARIANTS: 3): an export, 2 x 23 frames
+        return 3 * (1 + w * w * mm["ngf"] ** 2 / 1e6), w * w / 1e3
+    if rule == "metaballs_viewer":  # the demo by every network (3) and the ray marcher
+        return mm["demo_frames"] * w * w * 4 / 1e6, mm["demo_frames"] * w * w * 4 / 1e3
     if rule in ("metaballs_evaluate", "metaballs_demo"):
         return (mb["examples"]["test"] + mm["demo_frames"]) * w * w / 1e6, w * w / 1e3
     s = cfg["simplify"]
@@ -146,6 +161,9 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         rendered = s["train_views"] * s["reference_spp"] + s["test_views"] * s["test_spp"]
         detail = max(s["head_vertices"], s["metaball_grid"] ** 3 / 20)
         return (rendered * pixels + 40 * detail) / 1e6, (detail + s["texture_size"] ** 2) / 1e4
+    if rule in ("simplify_viewer", "simplify_mesh_figure"):  # the reference rebuilt
+        detail = max(s["head_vertices"], s["metaball_grid"] ** 3 / 20)
+        return detail / 1e6, detail / 1e4
     if rule == "simplify_optimise":
         return s["steps"] * s["batch"] * s["spp"] * pixels / 1e6, s["texture_size"] ** 2 / 1e4
     if rule == "simplify_evaluate":

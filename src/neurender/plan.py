@@ -3,6 +3,7 @@
     python -m neurender.plan --configfile config/paper.yaml        # estimate
     python -m neurender.plan --configfile config/smoke.yaml --check results
     python -m neurender.plan --calibrate results:config/smoke.yaml other_results:config/config.yaml
+    python -m neurender.plan --configfile config/paper.yaml --limits 2880 256000
 
 The jobs are the ones ``snakemake -n`` would run for ``results/report.html`` under the
 config (so user assets and variants count as they will run); each job's cost comes from
@@ -10,7 +11,9 @@ config (so user assets and variants count as they will run); each job's cost com
 use the training rates that ``benchmarks/gpu_check.sh`` measured on a GPU
 (``benchmarks/results/gpu_check_*.csv``), where there are any. ``--check`` compares the
 estimates with a finished run's ``benchmark:`` files and fails beyond a stated factor;
-``--calibrate`` fits ``costs.csv`` to the benchmark files of finished runs.
+``--calibrate`` fits ``costs.csv`` to the benchmark files of finished runs; ``--limits``
+fails when a job would ask the scheduler for more time (minutes) or memory (MB) than a
+partition allows.
 """
 
 from __future__ import annotations
@@ -106,7 +109,10 @@ def estimates(cfg: dict, jobs: list[PlannedJob]) -> pd.DataFrame:
             {
                 "stage": costs.stage(job.rule),
                 "rule": job.rule,
+                "wildcards": ",".join(f"{k}={v}" for k, v in job.wildcards.items()),
                 "benchmark": job.benchmark,
+                "runtime_min": e.runtime_min,
+                "mem_limit_mb": e.mem_limit_mb,
                 "seconds": e.seconds,
                 "core_seconds": e.seconds * job.threads,
                 "gpu_seconds": costs.work(job.rule, cfg, job.wildcards)[0] * gpu if gpu else 0.0,
@@ -134,6 +140,13 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
         table.mem_mb.max() / 1024,
     ]
     return out
+
+
+def beyond_limits(table: pd.DataFrame, minutes: float, mem_mb: float) -> pd.DataFrame:
+    """The jobs whose scheduler request (``runtime``, ``mem_mb``) exceeds a partition's
+    limits."""
+    over = (table.runtime_min > minutes) | (table.mem_limit_mb > mem_mb)
+    return table.loc[over, ["rule", "wildcards", "runtime_min", "mem_limit_mb"]]
 
 
 def measured_seconds(results: Path, table: pd.DataFrame) -> pd.Series:
@@ -209,6 +222,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--check", type=Path, help="a finished run's results folder")
     parser.add_argument("--factor", type=float, default=CHECK_FACTOR)
     parser.add_argument(
+        "--limits",
+        nargs=2,
+        type=float,
+        metavar=("MINUTES", "MEM_MB"),
+        help="a partition's time and memory limits every job's request must fit",
+    )
+    parser.add_argument(
         "--calibrate", nargs="+", metavar="RESULTS:CONFIG", help="finished runs to fit costs.csv to"
     )
     args = parser.parse_args(argv)
@@ -222,6 +242,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     cfg = load_config(args.configfile)
     table = estimates(cfg, dag_jobs(args.configfile))
     print(summary(table).round(3).to_string())
+    if args.limits:
+        over = beyond_limits(table, *args.limits)
+        minutes, mem_mb = args.limits
+        if len(over):
+            print(f"\n{len(over)} jobs ask for more than {minutes:g} min or {mem_mb:g} MB:")
+            print(over.to_string(index=False))
+            return 1
+        print(f"\nevery job's request fits {minutes:g} min and {mem_mb:g} MB")
     if args.check:
         result = check(table, args.check, args.factor)
         print(f"\nestimated vs measured job seconds (accepted within a factor of {args.factor}):")

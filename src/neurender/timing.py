@@ -33,9 +33,14 @@ def timed(
     return out, float(np.median(times))
 
 
-def hardware(threads: int) -> str:
-    """What a timing ran on: the GPU's name on CUDA, else the CPU's model and threads."""
-    if torch.cuda.is_available():
+def hardware(threads: int, device: str | torch.device | None = None) -> str:
+    """What a timing ran on: the GPU's name on CUDA, else the CPU's model and threads.
+
+    Args:
+        device: where the timed work ran; ``None``: on the GPU when there is one.
+    """
+    on_gpu = torch.cuda.is_available() if device is None else torch.device(device).type == "cuda"
+    if on_gpu:
         return f"{torch.cuda.get_device_name()} (CUDA)"
     model = platform.processor() or "CPU"
     try:

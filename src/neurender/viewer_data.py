@@ -11,7 +11,8 @@ from disk. Kinds and their ``data``:
 * ``meshes``: ``meshes`` name -> GLB bytes, ``captions`` name -> text.
 * ``frames``: ``frames`` name -> list of PNG bytes (one per step), optional ``overlay``
   name -> list of PNG bytes, ``label`` of the slider, ``overlay_label``, ``scale`` (the
-  on-screen magnification of the images).
+  on-screen magnification of the images), optional ``steps`` (one label per slider step,
+  shown beside the slider).
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from PIL import Image
 from neurender import io
 
 KINDS = ("prt", "meshes", "frames")
+#: Turns of a light or map about +y that relighting viewers offer (360 / TURNS apart).
+TURNS = 24
 
 
 def b64_array(array: np.ndarray, dtype: str) -> str:
@@ -46,6 +49,73 @@ def b64_png(image: np.ndarray) -> str:
     buffer = _io.BytesIO()
     Image.fromarray(image).save(buffer, format="PNG", optimize=True)
     return b64_bytes(buffer.getvalue())
+
+
+def decode_array(text: str, dtype: str, shape: tuple[int, ...] = (-1,)) -> np.ndarray:
+    """The inverse of :func:`b64_array`: a ``dtype`` array of ``shape`` (native order)."""
+    little = np.dtype(dtype).newbyteorder("<")
+    return np.frombuffer(base64.b64decode(text), little).astype(np.dtype(dtype)).reshape(shape)
+
+
+def decode_png(text: str) -> np.ndarray:
+    """The inverse of :func:`b64_png`: a ``(H, W[, C])`` uint8 image."""
+    return np.asarray(Image.open(_io.BytesIO(base64.b64decode(text))))
+
+
+#: Colours of :func:`mask_difference`: covered only by the candidate, only by the reference.
+EXTRA_COLOUR = (255, 40, 40)
+MISSING_COLOUR = (40, 160, 255)
+
+
+def mask_difference(mask: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """An ``(H, W, 4)`` uint8 RGBA overlay of two ``(H, W)`` bool masks: opaque
+    :data:`EXTRA_COLOUR` where only ``mask`` covers, :data:`MISSING_COLOUR` where only
+    ``reference`` does, transparent where they agree."""
+    mask, reference = np.asarray(mask, bool), np.asarray(reference, bool)
+    if mask.shape != reference.shape:
+        raise ValueError(f"mask {mask.shape} and reference {reference.shape} differ in shape")
+    out = np.zeros((*mask.shape, 4), np.uint8)
+    out[mask & ~reference] = (*EXTRA_COLOUR, 255)
+    out[reference & ~mask] = (*MISSING_COLOUR, 255)
+    return out
+
+
+def frames_data(
+    frames: dict[str, list[np.ndarray]],
+    label: str,
+    scale: int,
+    overlay: dict[str, list[np.ndarray]] | None = None,
+    overlay_label: str = "",
+    steps: list[str] | None = None,
+) -> dict[str, Any]:
+    """The ``data`` of a ``frames`` viewer: per panel name, one uint8 image ``(H, W[, C])``
+    per slider step (every panel the same count); ``overlay`` panels (a subset, RGBA)
+    drawn on top when the reader ticks ``overlay_label``; ``steps`` labels the steps."""
+    counts = {name: len(images) for name, images in frames.items()}
+    if not counts or len(set(counts.values())) != 1 or 0 in counts.values():
+        raise ValueError(f"frames viewer: every panel needs the same number of images: {counts}")
+    extra = set(overlay or {}) - set(frames)
+    if extra or any(len(v) != len(frames[k]) for k, v in (overlay or {}).items()):
+        raise ValueError(f"frames viewer: overlays {sorted(overlay or {})} must match panels")
+    data: dict[str, Any] = {
+        "frames": {name: [b64_png(im) for im in images] for name, images in frames.items()},
+        "label": label,
+        "scale": int(scale),
+    }
+    if steps is not None:
+        if len(steps) != next(iter(counts.values())):
+            raise ValueError(f"frames viewer: {len(steps)} step labels for {counts} images")
+        data["steps"] = list(steps)
+    if overlay:
+        data["overlay"] = {name: [b64_png(im) for im in ims] for name, ims in overlay.items()}
+        data["overlay_label"] = overlay_label
+    return data
+
+
+def display_scale(width: int, target: int = 256) -> int:
+    """The whole-number on-screen magnification that shows ``width``-pixel images at about
+    ``target`` pixels (at least 1)."""
+    return max(1, round(target / width))
 
 
 def write(path: str | Path, kind: str, title: str, data: dict[str, Any]) -> None:

@@ -129,7 +129,7 @@ def read_glb(path):
 def accessor(tree, binary, index):
     a = tree["accessors"][index]
     view = tree["bufferViews"][a["bufferView"]]
-    dtype = {5126: np.float32, 5125: np.uint32}[a["componentType"]]
+    dtype = {5126: np.float32, 5125: np.uint32, 5123: np.uint16}[a["componentType"]]
     width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[a["type"]]
     data = np.frombuffer(binary, dtype, a["count"] * width, view["byteOffset"])
     return data.reshape(a["count"], width)

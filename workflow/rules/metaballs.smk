@@ -32,7 +32,11 @@ rule metaballs_summary:
         ),
         examples=expand("results/metaballs/{split}", split=METABALLS_SPLITS),
     output:
-        csv="results/metaballs/data.csv",
+        csv=report(
+            "results/metaballs/data.csv",
+            category="Metaballs",
+            labels={"table": "data"},
+        ),
         figure=report(
             "results/metaballs/figures/examples.png",
             category="Metaballs",
@@ -88,7 +92,11 @@ rule metaballs_evaluate:
         test_balls="results/metaballs/test_balls.csv",
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
     output:
-        metrics="results/metaballs/metrics.csv",
+        metrics=report(
+            "results/metaballs/metrics.csv",
+            category="Metaballs",
+            labels={"table": "metrics"},
+        ),
         examples="results/metaballs/metrics_examples.csv",
         by_scene="results/metaballs/accuracy_by_scene.csv",
         figure=report(
@@ -123,7 +131,11 @@ rule metaballs_demo:
         ),
     output:
         frames="results/metaballs/demo_frames.csv",
-        timing="results/metaballs/timing.csv",
+        timing=report(
+            "results/metaballs/timing.csv",
+            category="Metaballs",
+            labels={"table": "timing"},
+        ),
         balls="results/metaballs/frame_time_vs_balls.csv",
         balls_png=report(
             "results/metaballs/figures/frame_time_vs_balls.png",
@@ -160,12 +172,38 @@ rule metaballs_demo:
         "../scripts/metaballs_demo.py"
 
 
+rule metaballs_deploy:
+    input:
+        test_balls="results/metaballs/test_balls.csv",
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+    output:
+        onnx=expand("results/metaballs/onnx/{variant}.onnx", variant=METABALLS_VARIANTS),
+        table="results/metaballs/deployment.csv",
+    log:
+        "results/logs/metaballs_deploy/metaballs_deploy.log",
+    benchmark:
+        "results/benchmarks/metaballs_deploy/metaballs_deploy.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_deploy"),
+    params:
+        cfg={},
+    script:
+        "../scripts/metaballs_deploy.py"
+
+
 rule metaballs_targets:
     input:
         metrics="results/metaballs/metrics.csv",
         timing="results/metaballs/timing.csv",
     output:
-        targets="results/metaballs/targets.csv",
+        targets=report(
+            "results/metaballs/targets.csv",
+            category="Metaballs",
+            labels={"table": "targets"},
+        ),
     log:
         "results/logs/metaballs_targets/metaballs_targets.log",
     benchmark:
@@ -186,7 +224,11 @@ rule metaballs_user_scenes:
         scenes=metaballs_user_scenes_file(),
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
     output:
-        table="results/metaballs/user_scenes.csv",
+        table=report(
+            "results/metaballs/user_scenes.csv",
+            category="Metaballs",
+            labels={"table": "your scenes"},
+        ),
         figure=report(
             "results/metaballs/figures/your_scenes.png",
             category="Metaballs",
@@ -205,3 +247,23 @@ rule metaballs_user_scenes:
         cfg=metaballs_evaluate_params(),
     script:
         "../scripts/metaballs_user_scenes.py"
+
+
+rule metaballs_viewer:
+    input:
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+    output:
+        viewer="results/metaballs/viewers/demo.json",
+    log:
+        "results/logs/metaballs_viewer/metaballs_viewer.log",
+    benchmark:
+        "results/benchmarks/metaballs_viewer/metaballs_viewer.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("metaballs_viewer"),
+    params:
+        cfg=metaballs_viewer_params(),
+    script:
+        "../scripts/metaballs_viewer.py"

@@ -32,8 +32,16 @@ rule ndr_summary:
         manifests=expand("results/ndr/{split}_manifest.csv", split=ndr_splits()),
         example="results/ndr/test",
     output:
-        csv="results/ndr/data.csv",
-        furnace="results/ndr/furnace.csv",
+        csv=report(
+            "results/ndr/data.csv",
+            category="NDR",
+            labels={"table": "data"},
+        ),
+        furnace=report(
+            "results/ndr/furnace.csv",
+            category="NDR",
+            labels={"table": "furnace"},
+        ),
         figure=report(
             "results/ndr/figures/buffers.png",
             category="NDR",
@@ -81,9 +89,17 @@ rule ndr_evaluate:
     input:
         unpack(ndr_evaluate_inputs),
     output:
-        metrics="results/ndr/metrics.csv",
+        metrics=report(
+            "results/ndr/metrics.csv",
+            category="NDR",
+            labels={"table": "metrics"},
+        ),
         samples="results/ndr/metrics_samples.csv",
-        timing="results/ndr/timing.csv",
+        timing=report(
+            "results/ndr/timing.csv",
+            category="NDR",
+            labels={"table": "timing"},
+        ),
         figure=report(
             "results/ndr/figures/comparison.png",
             category="NDR",
@@ -109,12 +125,37 @@ rule ndr_evaluate:
         "../scripts/ndr_evaluate.py"
 
 
+rule ndr_deploy:
+    input:
+        unpack(ndr_deploy_inputs),
+    output:
+        onnx=expand("results/ndr/onnx/{variant}.onnx", variant=NDR_VARIANTS),
+        table="results/ndr/deployment.csv",
+    log:
+        "results/logs/ndr_deploy/ndr_deploy.log",
+    benchmark:
+        "results/benchmarks/ndr_deploy/ndr_deploy.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_deploy"),
+    params:
+        cfg=ndr_deploy_params(),
+    script:
+        "../scripts/ndr_deploy.py"
+
+
 rule ndr_targets:
     input:
         metrics="results/ndr/metrics.csv",
         benchmarks=[path for path, _ in ndr_benchmarks()],
     output:
-        targets="results/ndr/targets.csv",
+        targets=report(
+            "results/ndr/targets.csv",
+            category="NDR",
+            labels={"table": "targets"},
+        ),
     log:
         "results/logs/ndr_targets/ndr_targets.log",
     benchmark:
@@ -135,7 +176,11 @@ rule ndr_relight:
         unpack(ndr_user_probe_files),
         checkpoint="results/ndr/models/ndr.pt",
     output:
-        csv="results/ndr/relighting.csv",
+        csv=report(
+            "results/ndr/relighting.csv",
+            category="NDR",
+            labels={"table": "relighting"},
+        ),
         figure=report(
             "results/ndr/figures/relighting.png",
             category="NDR",
@@ -161,7 +206,11 @@ rule ndr_user_objects:
         unpack(ndr_user_object_files),
         checkpoint="results/ndr/models/ndr.pt",
     output:
-        table="results/ndr/user_objects.csv",
+        table=report(
+            "results/ndr/user_objects.csv",
+            category="NDR",
+            labels={"table": "your objects"},
+        ),
         maps="results/ndr/user_objects_maps.csv",
         figure=report(
             "results/ndr/figures/your_objects.png",
@@ -181,3 +230,24 @@ rule ndr_user_objects:
         cfg=ndr_user_objects_params(),
     script:
         "../scripts/ndr_user_objects.py"
+
+
+rule ndr_viewer:
+    input:
+        unpack(ndr_user_probe_files),
+        checkpoint="results/ndr/models/ndr.pt",
+    output:
+        viewer="results/ndr/viewers/relight.json",
+    log:
+        "results/logs/ndr_viewer/ndr_viewer.log",
+    benchmark:
+        "results/benchmarks/ndr_viewer/ndr_viewer.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("ndr_viewer"),
+    params:
+        cfg=ndr_viewer_params,
+    script:
+        "../scripts/ndr_viewer.py"

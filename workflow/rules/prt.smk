@@ -154,8 +154,18 @@ rule prt_summary:
         ),
         noise=expand("results/prt/{object}/noise_floor.csv", object=PRT_OBJECTS),
     output:
-        data="results/prt/data.csv",
-        noise="results/prt/noise_floor.csv",
+        data=report(
+            "results/prt/data.csv",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"table": "data"},
+        ),
+        noise=report(
+            "results/prt/noise_floor.csv",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"table": "noise floor"},
+        ),
     log:
         "results/logs/prt_summary/prt_summary.log",
     benchmark:
@@ -176,7 +186,12 @@ rule prt_benchmark:
         seq=f"results/prt/{PRT_OBJECTS[0]}/sequence.npz",
         light=PRT_LIGHT,
     output:
-        csv="results/prt/benchmark.csv",
+        csv=report(
+            "results/prt/benchmark.csv",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"table": "ray-tracing benchmark"},
+        ),
     log:
         "results/logs/prt_benchmark/prt_benchmark.log",
     benchmark:
@@ -281,6 +296,7 @@ rule prt_evaluate:
     output:
         metrics="results/prt/{object}/metrics.csv",
         frames="results/prt/{object}/metrics_frames.csv",
+        deployment="results/prt/{object}/deployment.csv",
         figure=report(
             "results/prt/figures/{object}_prediction.png",
             category="DeepPRT",
@@ -306,6 +322,8 @@ rule prt_evaluate:
 rule prt_model_summary:
     input:
         metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
+        deployment=expand("results/prt/{object}/deployment.csv", object=PRT_OBJECTS)
+        + expand("results/prt/{x}/experiment_deployment.csv", x=PRT_EXPERIMENTS),
         checkpoints=expand(
             "results/prt/{object}/deepprt_{material}.pt",
             object=PRT_OBJECTS,
@@ -326,9 +344,25 @@ rule prt_model_summary:
         ),
         experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
     output:
-        metrics="results/prt/metrics.csv",
-        compression="results/prt/compression.csv",
-        targets="results/prt/targets.csv",
+        metrics=report(
+            "results/prt/metrics.csv",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"table": "metrics"},
+        ),
+        compression=report(
+            "results/prt/compression.csv",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"table": "compression"},
+        ),
+        deployment="results/prt/deployment.csv",
+        targets=report(
+            "results/prt/targets.csv",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"table": "targets"},
+        ),
         loss=report(
             "results/prt/figures/loss_curves.png",
             category="DeepPRT",
@@ -364,7 +398,13 @@ rule prt_experiment:
         momoprt="results/prt/{object}/momoprt_diffuse.npz",
         light=PRT_LIGHT,
     output:
-        csv="results/prt/{object}/experiment.csv",
+        csv=report(
+            "results/prt/{object}/experiment.csv",
+            category="DeepPRT",
+            subcategory="experiments",
+            labels={"experiment": "{object}", "table": "paper Fig. 6"},
+        ),
+        deployment="results/prt/{object}/experiment_deployment.csv",
         figure=report(
             "results/prt/figures/{object}.png",
             category="DeepPRT",
@@ -417,3 +457,58 @@ rule prt_relight:
         cfg=prt_test_frame_params,
     script:
         "../scripts/prt_relight.py"
+
+
+# ---------------------------------------------------------------- report views
+
+
+rule prt_viewer:
+    input:
+        unpack(prt_test_files),
+        deepprt="results/prt/{object}/deepprt_diffuse.pt",
+        onnx="results/prt/{object}/deepprt_diffuse.onnx",
+        momoprt="results/prt/{object}/momoprt_diffuse.npz",
+        probes=expand(
+            "results/prt/probes/{probe}_sh.csv", probe=config["prt"]["probes"]
+        ),
+    output:
+        viewer="results/prt/viewers/{object}.json",
+    log:
+        "results/logs/prt_viewer/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_viewer/{object}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_viewer"),
+    params:
+        cfg=prt_viewer_params,
+    script:
+        "../scripts/prt_viewer.py"
+
+
+rule prt_mesh_figure:
+    input:
+        gim="results/prt/{object}/geometry_image.npz",
+        seq="results/prt/{object}/sequence.npz",
+    output:
+        png=report(
+            "results/prt/figures/{object}_meshes.png",
+            category="DeepPRT",
+            subcategory="data",
+            labels={"object": "{object}", "figure": "geometry image and frames (3D)"},
+        ),
+    log:
+        "results/logs/prt_mesh_figure/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_mesh_figure/{object}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_mesh_figure"),
+    params:
+        cfg=prt_mesh_figure_params,
+    script:
+        "../scripts/prt_mesh_figure.py"

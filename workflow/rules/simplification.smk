@@ -66,10 +66,22 @@ rule simplify_evaluate:
     input:
         unpack(simplify_evaluate_inputs),
     output:
-        metrics="results/simplification/metrics.csv",
+        metrics=report(
+            "results/simplification/metrics.csv",
+            category="Simplification",
+            labels={"table": "metrics"},
+        ),
         metrics_views="results/simplification/metrics_views.csv",
-        targets="results/simplification/targets.csv",
-        stats="results/simplification/stats.csv",
+        targets=report(
+            "results/simplification/targets.csv",
+            category="Simplification",
+            labels={"table": "targets"},
+        ),
+        stats=report(
+            "results/simplification/stats.csv",
+            category="Simplification",
+            labels={"table": "statistics"},
+        ),
         figure=report(
             "results/simplification/figures/comparison.png",
             category="Simplification",
@@ -93,3 +105,56 @@ rule simplify_evaluate:
         cfg=simplify_evaluate_params(),
     script:
         "../scripts/simplify_evaluate.py"
+
+
+rule simplify_viewer:
+    input:
+        unpack(simplify_prepare_inputs),
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        baked_albedo="results/simplification/{case}/baked_albedo.png",
+        baked_normal="results/simplification/{case}/baked_normal.png",
+        mesh="results/simplification/{case}/optimised.npz",
+        normal="results/simplification/{case}/optimised_normal.png",
+        albedo="results/simplification/{case}/optimised_albedo.png",
+        metrics="results/simplification/metrics.csv",
+    output:
+        viewer="results/simplification/viewers/{case}.json",
+    log:
+        "results/logs/simplify_viewer/{case}.log",
+    benchmark:
+        "results/benchmarks/simplify_viewer/{case}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplify_viewer"),
+    params:
+        cfg=simplify_viewer_params,
+    script:
+        "../scripts/simplify_viewer.py"
+
+
+rule simplify_mesh_figure:
+    input:
+        unpack(simplify_prepare_inputs),
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        mesh="results/simplification/{case}/optimised.npz",
+    output:
+        png=report(
+            "results/simplification/figures/{case}_meshes.png",
+            category="Simplification",
+            labels={"case": "{case}", "figure": "meshes (3D)"},
+        ),
+    log:
+        "results/logs/simplify_mesh_figure/{case}.log",
+    benchmark:
+        "results/benchmarks/simplify_mesh_figure/{case}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplify_mesh_figure"),
+    params:
+        cfg=simplify_viewer_params,
+    script:
+        "../scripts/simplify_mesh_figure.py"

@@ -17,8 +17,13 @@ from pathlib import Path
 import torch
 from torch import nn
 
+from neurender.metaball import Scene
+from neurender.metaballs.renderer import MetaballRenderer
 from neurender.nn.inference import engine_milliseconds, export_onnx
 from neurender.nn.unet import count_parameters
+
+#: Scenes an export is checked on: the first of a split (the first twice if it has one).
+EXAMPLES = 2
 
 
 def per_image_normalisation(model: nn.Module) -> nn.Module:
@@ -46,6 +51,16 @@ class GeneratorGraph(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return ((self.generator(x * 2 - 1) + 1) / 2).clamp(0, 1)
+
+
+def example_inputs(renderer: MetaballRenderer, scenes: dict[int, Scene]) -> torch.Tensor:
+    """The renderer's inputs ``(EXAMPLES, C, W, W)`` in [0, 1] for the first
+    :data:`EXAMPLES` scenes by example number (repeated if there are fewer): what an export
+    is checked on."""
+    first = [scenes[k] for k in sorted(scenes)][:EXAMPLES]
+    if not first:
+        raise ValueError("no scenes to check an export on")
+    return torch.stack([renderer.inputs(first[i % len(first)]) for i in range(EXAMPLES)]).cpu()
 
 
 def export_generator(

@@ -13,12 +13,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from neurender import io
+from neurender import io, viewer_data
+from neurender.deployment import deployment_row, deployment_table
 from neurender.metaballs import (
     DEMO_VARIANTS,
     VARIANTS,
     data,
     demo,
+    deploy,
     evaluate,
     figures,
     scene_file,
@@ -27,7 +29,9 @@ from neurender.metaballs import (
     training,
     user_scenes,
 )
-from neurender.metaballs.renderer import load_renderers
+from neurender.metaballs.renderer import MetaballRenderer, load_renderers
+from neurender.metaballs.viewer import demo_view
+from neurender.timing import hardware
 
 log = logging.getLogger(__name__)
 
@@ -103,6 +107,28 @@ def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> N
     io.write_csv(outputs["balls"], balls)
 
 
+def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) as the ONNX file a
+    renderer ships (``onnx``, same order), checked against PyTorch on the inputs of the
+    first test scenes (``test_balls``) and timed by both engines on the CPU with
+    ``threads`` threads (:mod:`neurender.metaballs.deploy`); one row per variant in
+    ``table`` (:mod:`neurender.deployment`)."""
+    scenes = data.read_scenes(inputs["test_balls"])
+    where = hardware(threads, "cpu")
+    rows = []
+    for variant, checkpoint, onnx_out in zip(
+        VARIANTS, inputs["checkpoints"], outputs["onnx"], strict=True
+    ):
+        renderer = MetaballRenderer(checkpoint, "cpu", threads)
+        x = deploy.example_inputs(renderer, scenes)
+        measured = deploy.export_generator(
+            renderer.model, renderer.image_statistics, x, onnx_out, threads
+        )
+        size = tuple(x.shape[-2:])
+        rows.append(deployment_row("metaballs", variant, onnx_out, size, measured, threads, where))
+    io.write_csv(outputs["table"], deployment_table(rows))
+
+
 def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The stage's targets, each stated as met or missed, at image width ``width``."""
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
@@ -123,3 +149,19 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     )
     io.write_csv(outputs["table"], frame)
     figures.user_scenes_figure(shown, list(VARIANTS), outputs["figure"])
+
+
+def metaballs_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The report's interactive view (:mod:`neurender.metaballs.viewer`): the demo
+    animation by every network (``checkpoints`` in the order of :data:`VARIANTS`) and by
+    the ray marcher, with each network's silhouette difference as an overlay."""
+    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    sequence = demo.render_sequence(
+        renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
+    )
+    viewer_data.write(
+        outputs["viewer"],
+        "frames",
+        "Metaballs: the demo animation, networks against the ray marcher",
+        demo_view(sequence, list(VARIANTS), params["width"]),
+    )

@@ -116,22 +116,31 @@ class NDRDataset(Dataset):
     ``N`` (3, H, W) in [-1, 1], ``R`` (1), ``D`` (1), ``A_D``/``A_S`` (3) in [0, 1],
     ``S_D``/``S_S``/``I_D``/``I_S`` (3) linear HDR, ``mask`` (1) eroded by ``erosion`` px,
     ``light`` (75) the SH features (:func:`light_features`), and ``I_D_noisy``,
-    ``I_S_noisy`` on test splits. ``buffers`` holds the whole split ``(N, C, H, W)``.
+    ``I_S_noisy`` on test splits. ``buffers`` holds the whole split ``(N, C, H, W)``, or
+    its first ``count`` samples.
     """
 
     def __init__(
-        self, folder: str | Path, manifest: str | Path, lighting: str | Path, erosion: int
+        self,
+        folder: str | Path,
+        manifest: str | Path,
+        lighting: str | Path,
+        erosion: int,
+        count: int | None = None,
     ):
-        frame = io.read_csv(manifest, ["sample", "file"]).sort_values("sample")
+        frame = io.read_csv(manifest, ["sample", "file"]).sort_values("sample").head(count)
         self.light = light_features(read_lighting(lighting, frame["sample"]))
         self.buffers = stack_samples(
             [io.read_exr(Path(folder) / name) for name in frame["file"]], erosion
         )
 
     @classmethod
-    def from_files(cls, files: dict[str, str], erosion: int) -> NDRDataset:
-        """A split from its ``dir``, ``manifest`` and ``lighting`` files."""
-        return cls(files["dir"], files["manifest"], files["lighting"], erosion)
+    def from_files(
+        cls, files: dict[str, str], erosion: int, count: int | None = None
+    ) -> NDRDataset:
+        """A split (its first ``count`` samples) from its ``dir``, ``manifest`` and
+        ``lighting`` files."""
+        return cls(files["dir"], files["manifest"], files["lighting"], erosion, count)
 
     def __len__(self) -> int:
         return len(self.light)

@@ -14,10 +14,13 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from neurender.ndr.buffers import channel_count
+from neurender.ndr.buffers import NDRDataset, channel_count
 from neurender.ndr.model import NDRModel
 from neurender.nn.inference import engine_milliseconds, export_onnx
 from neurender.nn.unet import count_parameters
+
+#: Samples an export is checked on: the first of a split (the first twice if it has one).
+EXAMPLES = 2
 
 
 def graph_groups(model: NDRModel) -> tuple[str, ...]:
@@ -46,6 +49,13 @@ class NDRGraph(nn.Module):
 def graph_inputs(model: NDRModel, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, ...]:
     """A dataset batch as the graph's ``(buffers, light)``."""
     return torch.cat([batch[g] for g in graph_groups(model)], 1), batch["light"]
+
+
+def example_batch(data: NDRDataset) -> dict[str, torch.Tensor]:
+    """The first :data:`EXAMPLES` samples of a split as one batch (repeated if the split
+    has fewer): what an export is checked on."""
+    index = torch.arange(EXAMPLES) % len(data)
+    return {"light": data.light[index], **{g: v[index] for g, v in data.buffers.items()}}
 
 
 def export_variant(

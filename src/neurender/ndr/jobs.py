@@ -12,12 +12,16 @@ import logging
 import sys
 
 import pandas as pd
+import torch
 
-from neurender import io, train
+from neurender import io, train, viewer_data
+from neurender.deployment import deployment_row, deployment_table
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.ndr import (
     KINDS,
+    VARIANTS,
     data,
+    deploy,
     figures,
     furnace,
     pool,
@@ -30,7 +34,9 @@ from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import score_split
 from neurender.ndr.model import SHADING_INPUT, load_model
 from neurender.ndr.training import train_variant
+from neurender.ndr.viewer import relight_view
 from neurender.tables import target_table
+from neurender.timing import hardware
 
 log = logging.getLogger(__name__)
 
@@ -116,6 +122,29 @@ def ndr_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
     figures.loss_figure({v: inputs[f"loss_{v}"] for v in params["variants"]}, outputs["curves"])
 
 
+def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every trained variant (``checkpoint_<variant>`` for ``params["variants"]``) as the
+    ONNX file a renderer ships (``onnx``, in that order), checked against PyTorch on the
+    first samples of the test split of its data and timed by both engines on the CPU with
+    ``threads`` threads (:mod:`neurender.ndr.deploy`); one row per variant in ``table``
+    (:mod:`neurender.deployment`). One job for all variants: their times are taken back to
+    back under the same load, and re-exporting all of them costs little beside retraining
+    the one variant that triggers it."""
+    cpu = torch.device("cpu")
+    where = hardware(threads, cpu)
+    examples, rows = {}, []
+    for variant, onnx_out in zip(params["variants"], outputs["onnx"], strict=True):
+        split = split_name(VARIANTS[variant].data, "test")
+        if split not in examples:
+            files = _split_files(inputs, split)
+            examples[split] = deploy.example_batch(NDRDataset.from_files(files, 0, deploy.EXAMPLES))
+        model = load_model(inputs[f"checkpoint_{variant}"], cpu)
+        measured = deploy.export_variant(model, examples[split], onnx_out, threads)
+        size = tuple(examples[split]["N"].shape[-2:])
+        rows.append(deployment_row("ndr", variant, onnx_out, size, measured, threads, where))
+    io.write_csv(outputs["table"], deployment_table(rows))
+
+
 def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The targets: the test metrics and the stage's time from every NDR job's benchmark
     (its threads in ``params["job_threads"]``) on ``params["cores"]`` cores."""
@@ -142,6 +171,25 @@ def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
         images[SHADING_INPUT]["I_R"],
         table[table.metric == "dssim_I_R"],
         outputs["figure"],
+    )
+
+
+def ndr_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The report's interactive view (:mod:`neurender.ndr.viewer`): test sample
+    ``relight_sample`` under its map turned in :data:`neurender.viewer_data.TURNS` steps
+    (at most one per map column), by Mitsuba, NDR (``checkpoint``) and the shading input."""
+    mi, _ = require_mitsuba(params["device"])
+    sample = params["relight_sample"]
+    turns = min(viewer_data.TURNS, 2 * params["environment_height"])
+    shifts, degrees = relight.rotations(params["environment_height"], turns)
+    buffers = relight.relit_buffers(mi, params, sample, shifts)
+    device = train.resolve_device(params["device"], threads)
+    images = relight.relight(load_model(inputs["checkpoint"], device), buffers, device)
+    viewer_data.write(
+        outputs["viewer"],
+        "frames",
+        f"NDR: unseen test sample {sample} under its map turned about +y",
+        relight_view(images, degrees),
     )
 
 

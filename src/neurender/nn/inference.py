@@ -61,8 +61,9 @@ def prepare_for_inference(model: nn.Module) -> nn.Module:
 @contextlib.contextmanager
 def _quiet_exporter() -> Iterator[io.StringIO]:
     """Collect what ``torch.onnx.export`` prints and silence its warnings that ask nothing
-    of us: torchvision ops missing from its registry (we use none) and a deprecation that
-    torch.export (2.13) trips over inside itself."""
+    of us: torchvision ops missing from its registry (we use none), a deprecation that
+    torch.export (2.13) trips over inside itself, and that inputs sharing the batch axis
+    share its name."""
     registry = logging.getLogger("torch.onnx._internal.exporter._registration")
     level = registry.level
     registry.setLevel(logging.ERROR)
@@ -70,6 +71,7 @@ def _quiet_exporter() -> Iterator[io.StringIO]:
     try:
         with contextlib.redirect_stdout(chatter), warnings.catch_warnings():
             warnings.filterwarnings("ignore", ".*LeafSpec.*", FutureWarning)
+            warnings.filterwarnings("ignore", ".*shares the same shape constraints.*", UserWarning)
             yield chatter
     finally:
         registry.setLevel(level)

@@ -6,7 +6,8 @@ CPU); every other engine it holds is timed beside it (``inference_ms_per_frame_<
 The equal-quality ratio compares that time with the time of the cheapest ray-traced
 ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse SSIM
 against the clean reference reaches the network's, on the first test frames. All on the
-same machine and threads.
+same machine and threads. The same times of every network (diffuse and glossy) are its
+rows of the deployment table (:func:`deployment_rows`).
 """
 
 from __future__ import annotations
@@ -17,20 +18,57 @@ import time
 import numpy as np
 import pandas as pd
 
+from neurender.deployment import deployment_row, onnx_file_facts
 from neurender.prt import transfer
 from neurender.prt.frames import Split, ray_offset
 from neurender.prt.model import DeepPRT
 from neurender.prt.scores import diffuse_ssim
 from neurender.tables import tidy_rows
-from neurender.timing import timed
+from neurender.timing import hardware, timed
 
 
-def inference_seconds(net: DeepPRT, frame: Split) -> dict[str, float]:
-    """Median seconds per prediction of one frame by each of the network's engines."""
+def inference_seconds(net: DeepPRT, split: Split) -> dict[str, float]:
+    """Median seconds per prediction of the first frame of ``split`` by each of the
+    network's engines."""
+    frame = Split(split.positions[:1], split.normals[:1], None, None, None)
     return {
         engine: timed(net.predict, frame, engine=engine, repeats=51, warmup=1)[1]
         for engine in net.engines
     }
+
+
+def deployment_rows(
+    name: str,
+    nets: dict[str, DeepPRT],
+    onnx_files: dict[str, str],
+    engine_s: dict[str, dict[str, float]],
+    test: Split,
+    threads: int,
+) -> list[dict]:
+    """One object's rows of the deployment table (:mod:`neurender.deployment`), one per
+    material: the network ``nets[m]``, its ONNX file ``onnx_files[m]`` and its times
+    ``engine_s[m]`` (:func:`inference_seconds`; ONNX Runtime NaN where the network ran on
+    a GPU) at the resolution of the ``test`` frames."""
+    rows = []
+    for material, net in nets.items():
+        measured = {
+            "parameters": net.parameters,
+            **onnx_file_facts(onnx_files[material]),
+            "ms_per_frame_onnxruntime": 1000 * engine_s[material].get("onnxruntime", math.nan),
+            "ms_per_frame_pytorch": 1000 * engine_s[material]["pytorch"],
+        }
+        rows.append(
+            deployment_row(
+                "prt",
+                f"{name} {material}",
+                onnx_files[material],
+                test.positions.shape[1:3],
+                measured,
+                threads,
+                hardware(threads, net.device),
+            )
+        )
+    return rows
 
 
 def ray_traced_estimates(
@@ -72,6 +110,7 @@ def ray_traced_estimates(
 def timing_rows(
     name: str,
     net: DeepPRT,
+    engine_s: dict[str, float],
     test: Split,
     light: np.ndarray,
     cfg: dict,
@@ -82,10 +121,10 @@ def timing_rows(
     times and SSIMs, the speed-up over the reference and the equal-quality ratio.
 
     Args:
+        engine_s: the network's seconds per frame by engine (:func:`inference_seconds`).
         frames: the object's per-frame scores (:func:`neurender.prt.scores.score_frames`),
             for the network's diffuse SSIM on the same test frames.
     """
-    engine_s = inference_seconds(net, Split(test.positions[:1], test.normals[:1], None, None, None))
     net_s = engine_s[net.engine]
     count = min(cfg["noise_floor_frames"], len(test.positions))
     deep = frames[

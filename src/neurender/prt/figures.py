@@ -223,3 +223,32 @@ def relight_figure(name: str, blends: list[tuple[float, np.ndarray, np.ndarray, 
     fig.suptitle(f"DeepPRT paper Fig. 2: {name} test frame 0 under a blend of two light probes")
     fig.tight_layout()
     save_figure(fig, out)
+
+
+def meshes_figure(
+    name: str, rest: np.ndarray, train: np.ndarray, test: np.ndarray, out: str, count: int = 3
+) -> None:
+    """PyVista figure of an object's geometry image (its rest grid mesh ``(n, n, 3)`` with
+    its grid lines, large enough that every one of a 64 x 64 grid's cells shows) and of
+    ``count`` training frames (first, evenly spaced, last) and the first test frame
+    (``(F, n, n, 3)`` each), coloured by each grid point's distance from its rest position
+    (world units)."""
+    from neurender.mesh_figures import Panel, render_panels
+
+    n = rest.shape[0]
+    picks = np.unique(np.linspace(0, len(train) - 1, count).round().astype(int))
+    frames = [(f"train frame {k}", train[k]) for k in picks] + [("test frame 0", test[0])]
+    distances = [np.linalg.norm(p - rest, axis=-1) for _, p in frames]
+    top = max(float(max(d.max() for d in distances)), 1e-9)
+    panels = [Panel(rest, title=f"{name}: geometry image {n} x {n} (rest)", edges=True)]
+    panels += [
+        Panel(
+            p,
+            title=title,
+            scalars=d,
+            clim=(0.0, top),
+            scalar_title="distance from rest" if k == len(frames) - 1 else None,
+        )
+        for k, ((title, p), d) in enumerate(zip(frames, distances, strict=True))
+    ]
+    render_panels(panels, out, (2, 4), (1100, 550), groups=[(slice(0, 2), slice(0, 2))])

@@ -6,6 +6,7 @@ Each job is named after its rule and has the signature of :data:`neurender.jobs.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -14,7 +15,8 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from neurender import io, lights, sh, train
+from neurender import io, lights, sh, train, viewer_data
+from neurender.deployment import deployment_table, read_deployment
 from neurender.prt import (
     MATERIALS,
     SPLITS,
@@ -26,7 +28,7 @@ from neurender.prt import (
     summary,
     transfer,
 )
-from neurender.prt.equal_quality import timing_rows
+from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
 from neurender.prt.geometry_image import parametrise, reconstruction_error, resample
 from neurender.prt.model import DeepPRT, export_deepprt
@@ -34,6 +36,7 @@ from neurender.prt.momoprt import MoMoPRT, fit_momoprt
 from neurender.prt.scores import aggregate, score_frames
 from neurender.prt.sequences import build_sequences, user_sequences
 from neurender.prt.training import train_deepprt
+from neurender.prt.viewer import prt_view
 from neurender.shapes import BLENDSHAPES, SourceMesh
 from neurender.tables import tidy_rows
 
@@ -211,6 +214,14 @@ def prt_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     )
 
 
+def prt_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The object's geometry-image mesh and deformation frames in 3D (PyVista)."""
+    gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
+    figures.meshes_figure(
+        params["object"], gim["rest"], seq["train_positions"], seq["test_positions"], outputs["png"]
+    )
+
+
 def prt_probes_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     figures.probes_figure(inputs["exrs"], inputs["sh"], outputs["png"])
 
@@ -257,7 +268,8 @@ def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 
 def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """DeepPRT, MoMoPRT and the noise floor scored on the val and test frames of one object
-    (:mod:`neurender.prt.scores`), timed (:mod:`neurender.prt.equal_quality`), and Fig. 7."""
+    (:mod:`neurender.prt.scores`), timed (:mod:`neurender.prt.equal_quality`; each network's
+    times and ONNX file are its ``deployment`` rows), and Fig. 7."""
     name, n_bands = params["object"], params["n_bands"]
     seq = io.load_npz(inputs["seq"])
     light = _light(inputs["light"], n_bands)
@@ -285,7 +297,13 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
         panels |= split_panels
     scores = pd.DataFrame(rows)
     io.write_csv(outputs["frames"], scores)
-    timing = timing_rows(name, nets["diffuse"], test, light, params, threads, scores)
+    engine_s = {m: inference_seconds(nets[m], test) for m in MATERIALS}
+    timing = timing_rows(
+        name, nets["diffuse"], engine_s["diffuse"], test, light, params, threads, scores
+    )
+    onnx_files = dict(zip(MATERIALS, inputs["onnx"], strict=True))
+    deployment = deployment_rows(name, nets, onnx_files, engine_s, test, threads)
+    io.write_csv(outputs["deployment"], deployment_table(deployment))
     checkpoints = zip(MATERIALS, inputs["deepprt"], strict=True)
     budget = {f"epochs_{m}": train.epochs_trained(path) for m, path in checkpoints}
     budget_rows = pd.DataFrame(tidy_rows("prt", name, "DeepPRT", "test", budget))
@@ -296,12 +314,14 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every object's results in the report's DeepPRT tables, the loss figure and the
-    equal-quality figure."""
+    """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
+    too), the loss figure and the equal-quality figure."""
     objects_ = params["objects"]
     keys = [(o, m) for o in objects_ for m in MATERIALS]  # the order of the rule's expand()
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
+    deployment = [read_deployment(p) for p in inputs["deployment"]]
+    io.write_csv(outputs["deployment"], pd.concat(deployment, ignore_index=True))
     splits = len(SPLITS)
     frame_dirs = {
         o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(objects_)
@@ -325,21 +345,22 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Paper section 4.2.2 / Fig. 6: diffuse L2-RGB along the experiment's test path for
-    DeepPRT and MoMoPRT."""
+    DeepPRT and MoMoPRT; the network's ``deployment`` row (timed as in :func:`prt_evaluate`)."""
     name = params["object"]
     seq = io.load_npz(inputs["seq"])
     light = _light(inputs["light"], params["n_bands"])
     data = _split(inputs, seq, "test", params["n_bands"])
     x, label = path_coordinate(name, data)
-    preds = {
-        "DeepPRT": DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads).predict(
-            data
-        ),
-        "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(data),
-    }
+    net = DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads)
+    preds = {"DeepPRT": net.predict(data), "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(data)}
     table = pd.DataFrame(path_rows(name, data, x, preds, light, params["render_resolution"]))
     io.write_csv(outputs["csv"], table)
     figures.experiment_figure(name, table, label, outputs["figure"])
+    seconds = {"diffuse": inference_seconds(net, data)}
+    rows = deployment_rows(
+        name, {"diffuse": net}, {"diffuse": inputs["onnx"]}, seconds, data, threads
+    )
+    io.write_csv(outputs["deployment"], deployment_table(rows))
 
 
 def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
@@ -355,3 +376,29 @@ def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     )
     figures.relight_figure(params["object"], blends, outputs["figure"])
     io.write_csv(outputs["csv"], pd.DataFrame(rows))
+
+
+# ---------------------------------------------------------------- report
+
+
+def prt_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The report's interactive view of one object (:mod:`neurender.prt.viewer`): test
+    frame 0 as a mesh with the diffuse transfer of the ground truth, DeepPRT and MoMoPRT,
+    and every probe (``probes``: ``<name>_sh.csv`` files) turned about +y."""
+    n_bands, name = params["n_bands"], params["object"]
+    seq = io.load_npz(inputs["seq"])
+    data = _split(inputs, seq, "test", n_bands)
+    first = frames.Split(*(getattr(data, f.name)[:1] for f in dataclasses.fields(data)))
+    predictions = {
+        "DeepPRT": DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads).predict(
+            first
+        ),
+        "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(first),
+    }
+    probes = {Path(p).name.removesuffix("_sh.csv"): _light(p, n_bands) for p in inputs["probes"]}
+    viewer_data.write(
+        outputs["viewer"],
+        "prt",
+        f"DeepPRT {name}: test frame 0, diffuse, relit in the page",
+        prt_view(first, 0, predictions, probes, n_bands),
+    )

@@ -16,7 +16,7 @@ from neurender.geometry import grid_faces
 from neurender.prt.frames import Split
 
 #: Turns of the light about +y offered by the page's slider (degrees apart: 360 / TURNS).
-TURNS = 24
+TURNS = viewer_data.TURNS
 
 
 def prt_view(

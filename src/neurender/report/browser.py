@@ -121,7 +121,12 @@ def check_report(
                 _move(driver, control)
                 time.sleep(0.3)  # images decode and canvases redraw asynchronously
                 after = _pixels(driver, viewer)
-                label = control.find_element("xpath", "..").text.strip().split("\n")[0]
+                # The label's own text, without a readout of the value beside the control.
+                label = driver.execute_script(
+                    "const p = arguments[0].parentElement, t = p.firstChild;"
+                    "return (t.nodeType === Node.TEXT_NODE ? t : p).textContent.trim();",
+                    control,
+                )
                 label = label or f"control {k}"
                 changed[label] = after.shape != before.shape or bool(np.any(after != before))
                 before = after

@@ -5,7 +5,10 @@ The report only shows what the pipeline measured (tidy CSV tables, PNG/GIF figur
 viewer files that stages wrote under ``results/<method>/``) and the published numbers in
 ``paper_numbers.csv`` (each row cites its table or section). The summary takes each
 method's headline rows (``headlines.csv``: our value beside the paper's) and its targets
-(``targets.csv`` of the method, met or missed). A method whose stage has not produced
+(``targets.csv`` of the method, met or missed), and one deployment table: every trained
+network of every method (its ``deployment.csv``, :mod:`neurender.deployment`) beside
+the papers' network times (``paper_numbers.csv`` rows of metric :data:`PAPER_TIME`, whose
+note names the hardware) and our hardware. A method whose stage has not produced
 anything says so. Figures, viewer data and the viewers' code (three.js, bundled in
 ``static/viewers.min.js``) are embedded, so the file opens from disk with no server.
 """
@@ -26,10 +29,13 @@ import jinja2
 import pandas as pd
 
 from neurender import io, viewer_data
+from neurender.deployment import read_deployment
 from neurender.tables import TIDY_COLUMNS, lookup
 
 #: Tables longer than this many rows are shown collapsed.
 LONG_TABLE_ROWS = 12
+#: The metric of the papers' network times per frame in ``paper_numbers.csv``.
+PAPER_TIME = "network_ms_per_frame"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,6 +210,66 @@ def _targets(table: pd.DataFrame | None) -> dict:
     return {"met": int(met.sum()), "missed": missed}
 
 
+def _short_title(key: str) -> str:
+    return next(s.title.split(":")[0] for s in SECTIONS if s.key == key)
+
+
+def _bytes(n: float) -> str:
+    return f"{n / 1e6:.1f} MB" if n >= 1e6 else f"{n / 1e3:.0f} kB"
+
+
+def deployment_summary(tables: Sequence[Path]) -> dict | None:
+    """The summary's deployment table: every network of the ``deployment.csv`` files among
+    ``tables`` (methods in report order) and the papers' network times beside it; the
+    hardware our times were measured on. ``None`` when no method has deployed anything."""
+    files = [t for t in tables if t.stem == "deployment" and _method_of(t)]
+    if not files:
+        return None
+    ours = pd.concat([read_deployment(f) for f in files], ignore_index=True)
+    order = {s.key: i for i, s in enumerate(SECTIONS)}
+    ours = ours.sort_values("method", key=lambda m: m.map(order), kind="stable")
+    shown = pd.DataFrame(
+        {
+            "method": ours.method.map(_short_title),
+            "network": ours.network.map(html.escape),
+            "resolution": ours.resolution.map(html.escape),
+            "parameters": ours.parameters.map(lambda n: f"{int(n):,}"),
+            "ONNX file": ours.onnx_bytes.map(_bytes),
+            "max |ONNX - PyTorch|": ours.max_abs_diff_vs_pytorch.map(lambda e: f"{e:.2g}"),
+            "ONNX Runtime ms": ours.onnxruntime_ms_per_frame.map(_format_value),
+            "PyTorch ms": ours.pytorch_ms_per_frame.map(_format_value),
+        }
+    )
+    published = paper_numbers()
+    published = published[published.method.isin(set(ours.method))]
+    sizes = published[published.metric == "parameters"]
+    sizes = dict(zip(zip(sizes.method, sizes.model, strict=True), sizes.value, strict=True))
+    times = published[published.metric == PAPER_TIME]
+    times = times.sort_values("method", key=lambda m: m.map(order), kind="stable")
+    papers = [
+        {
+            "method": _short_title(row.method),
+            "network": html.escape(row.model),
+            "setting": html.escape(row.setting),
+            "parameters": (
+                f"{int(sizes[row.method, row.model]):,}"
+                if (row.method, row.model) in sizes
+                else "not stated"
+            ),
+            "ms per frame": _format_value(float(row.value)),
+            "hardware and notes": html.escape(row.note),
+            "source": html.escape(row.source),
+        }
+        for row in times.itertuples()
+    ]
+    return {
+        "ours": _table_html(shown),
+        "rows": len(shown),
+        "paper": _table_html(pd.DataFrame(papers)) if papers else "",
+        "hardware": list(dict.fromkeys(ours.hardware)),
+    }
+
+
 def _viewer(path: Path, index: int) -> dict:
     viewer = viewer_data.read(path)
     return {
@@ -295,6 +361,7 @@ def build_report(
         sections=sections,
         run_info=run_info or {},
         viewer_code=code,
+        deployment=deployment_summary([Path(t) for t in tables]),
         generated=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
     with io.atomic_path(output) as tmp:

@@ -108,6 +108,8 @@ class Asset:
         references: ``(mi, views, split, cfg) -> (N, W, W, 4)`` reference renders.
         to_asset: ``(4, 4)`` from the stage's frame back to the asset file's (uniform
             scale and translation); None for the built-in cases, made in the stage's frame.
+        source: a user asset's parts with their materials, in the stage's frame; None
+            for the built-in cases.
     """
 
     vertices: np.ndarray
@@ -118,6 +120,7 @@ class Asset:
     normal_fn: AttributeFn | None
     references: Callable[[ModuleType, list[View], str, dict], np.ndarray]
     to_asset: np.ndarray | None = None
+    source: user_mesh.UserMesh | None = None
 
 
 def head_asset(cfg: dict) -> Asset:
@@ -250,6 +253,7 @@ def user_asset(cfg: dict) -> Asset:
         normal_fn=None,
         references=references,
         to_asset=to_asset_matrix(scale, offset),
+        source=mesh,
     )
 
 

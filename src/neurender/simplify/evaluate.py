@@ -25,6 +25,7 @@ import torch
 from neurender import io, metrics
 from neurender.display import srgb
 from neurender.simplify import export, formats, render, terminator, views
+from neurender.simplify.mesh_ops import LowPolyMesh
 from neurender.tables import tidy_rows
 
 VARIANTS = ("qem", "baked", "ours")
@@ -57,8 +58,12 @@ def image_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
     }
 
 
-def variant_shape(mi: ModuleType, variant: str, files: dict, constant_albedo: float | None):
-    """The Mitsuba mesh of one variant at the shared triangle count and texture size.
+def variant_maps(
+    variant: str, files: dict, constant_albedo: float | None
+) -> tuple[LowPolyMesh, np.ndarray, np.ndarray | float, np.ndarray | None]:
+    """What one variant draws at the shared triangle count and texture size: the atlas
+    mesh, its welded positions ``(V, 3)``, its albedo (a ``(T, T, 3)`` map or the case's
+    uniform grey) and its normal map in Mitsuba's tangent frame (None for ``qem``).
 
     Args:
         files: the case's ``lowpoly``, ``baked_albedo``, ``baked_normal``, ``mesh``,
@@ -76,6 +81,12 @@ def variant_shape(mi: ModuleType, variant: str, files: dict, constant_albedo: fl
         albedo = formats.read_texture(files["albedo"])
     if constant_albedo is not None and variant != "ours":
         albedo = constant_albedo
+    return low, positions, albedo, normal_map
+
+
+def variant_shape(mi: ModuleType, variant: str, files: dict, constant_albedo: float | None):
+    """The Mitsuba mesh of one variant (:func:`variant_maps`)."""
+    low, positions, albedo, normal_map = variant_maps(variant, files, constant_albedo)
     return render.atlas_shape(mi, low, render.material(mi, albedo, normal_map), positions)
 
 

@@ -4,7 +4,8 @@ undone, :attr:`neurender.simplify.assets.Asset.to_asset`).
 
 GLB (written here, one mesh of one primitive): ``POSITION``, ``NORMAL`` (the welded
 mesh's area-weighted vertex normals, as the stage renders it), ``TANGENT``,
-``TEXCOORD_0``, 32-bit indices; one material: ``baseColorTexture`` (8-bit PNG,
+``TEXCOORD_0``, 16-bit indices (32-bit from 65536 vertices on); one material
+(:mod:`neurender.gltf`): ``baseColorTexture`` (8-bit PNG,
 sRGB-encoded as glTF requires), ``normalTexture`` (8-bit PNG, linear ``(n + 1) / 2``),
 ``metallicFactor`` 0, ``roughnessFactor`` 1 and ``KHR_materials_specular`` with
 ``specularFactor`` 0, which makes glTF's BRDF the stage's Lambertian (a viewer without the
@@ -33,24 +34,19 @@ tangents: a reader computes its own, MikkTSpace in most tools).
 
 from __future__ import annotations
 
-import io as bytes_io
-import json
-import struct
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
-from neurender import io
+from neurender import gltf, io
 from neurender.display import srgb
 from neurender.geometry import vertex_normals
 from neurender.simplify import asset_files, user_mesh
 from neurender.simplify.bake import dilate, rasterise_uvs, tangent_frames
 from neurender.simplify.mesh_ops import LowPolyMesh
 
-FLOAT, UINT = 5126, 5125  # glTF component types
-ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
-LINEAR, LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE = 9729, 9987, 33071
+GENERATOR = "neurender appearance-driven simplification"
 
 
 def _unit(x: np.ndarray) -> np.ndarray:
@@ -145,116 +141,33 @@ def to_mitsuba_normals(change: np.ndarray, normal_map: np.ndarray) -> np.ndarray
     return _apply(np.linalg.inv(change), normal_map)
 
 
-def png_bytes(values: np.ndarray) -> bytes:
-    """An ``(H, W, 3)`` array of values in [0, 1] as 8-bit RGB PNG bytes."""
-    buffer = bytes_io.BytesIO()
-    Image.fromarray(io.to_uint8(values)).save(buffer, format="PNG")
-    return buffer.getvalue()
-
-
-def glb_bytes(
+def atlas_primitive(
+    low: LowPolyMesh,
     positions: np.ndarray,
-    normals: np.ndarray,
-    tangents: np.ndarray,
-    uvs: np.ndarray,
-    faces: np.ndarray,
-    base_colour_png: bytes,
-    normal_png: bytes,
-    name: str,
-) -> bytes:
-    """A GLB of one textured triangle mesh (see the module docstring); ``uvs`` with ``v``
-    down the image, as glTF's ``TEXCOORD_0``."""
-    chunks: list[bytes] = []
-    views: list[dict] = []
-    accessors: list[dict] = []
-
-    def view(data: bytes, target: int | None = None) -> int:
-        offset = sum(len(c) for c in chunks)
-        entry = {"buffer": 0, "byteOffset": offset, "byteLength": len(data)}
-        if target is not None:
-            entry["target"] = target
-        chunks.append(data + b"\0" * (-len(data) % 4))
-        views.append(entry)
-        return len(views) - 1
-
-    def accessor(array: np.ndarray, kind: str, component: int, target: int, bounds=False) -> int:
-        dtype = np.float32 if component == FLOAT else np.uint32
-        data = np.ascontiguousarray(array, dtype=dtype)
-        entry = {
-            "bufferView": view(data.tobytes(), target),
-            "componentType": component,
-            "count": len(data) if data.ndim > 1 else data.size,
-            "type": kind,
-        }
-        if bounds:
-            entry["min"] = data.min(0).tolist()
-            entry["max"] = data.max(0).tolist()
-        accessors.append(entry)
-        return len(accessors) - 1
-
-    attributes = {
-        "POSITION": accessor(positions, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True),
-        "NORMAL": accessor(normals, "VEC3", FLOAT, ARRAY_BUFFER),
-        "TANGENT": accessor(tangents, "VEC4", FLOAT, ARRAY_BUFFER),
-        "TEXCOORD_0": accessor(uvs, "VEC2", FLOAT, ARRAY_BUFFER),
-    }
-    indices = accessor(faces.ravel(), "SCALAR", UINT, ELEMENT_ARRAY_BUFFER)
-    images = [
-        {"bufferView": view(png), "mimeType": "image/png"} for png in (base_colour_png, normal_png)
-    ]
-    tree = {
-        "asset": {"version": "2.0", "generator": "neurender appearance-driven simplification"},
-        "extensionsUsed": ["KHR_materials_specular"],
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": name}],
-        "meshes": [
-            {
-                "name": name,
-                "primitives": [
-                    {"attributes": attributes, "indices": indices, "material": 0, "mode": 4}
-                ],
-            }
-        ],
-        "materials": [
-            {
-                "name": name,
-                "pbrMetallicRoughness": {
-                    "baseColorTexture": {"index": 0},
-                    "metallicFactor": 0.0,
-                    "roughnessFactor": 1.0,
-                },
-                "normalTexture": {"index": 1},
-                "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
-            }
-        ],
-        "samplers": [
-            {
-                "magFilter": LINEAR,
-                "minFilter": LINEAR_MIPMAP_LINEAR,
-                "wrapS": CLAMP_TO_EDGE,
-                "wrapT": CLAMP_TO_EDGE,
-            }
-        ],
-        "textures": [{"sampler": 0, "source": 0}, {"sampler": 0, "source": 1}],
-        "images": images,
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{"byteLength": sum(len(c) for c in chunks)}],
-    }
-    text = json.dumps(tree, separators=(",", ":")).encode()
-    text += b" " * (-len(text) % 4)
-    binary = b"".join(chunks)
-    total = 12 + 8 + len(text) + 8 + len(binary)
-    return b"".join(
-        [
-            struct.pack("<4sII", b"glTF", 2, total),
-            struct.pack("<I4s", len(text), b"JSON"),
-            text,
-            struct.pack("<I4s", len(binary), b"BIN\0"),
-            binary,
-        ]
-    )
+    albedo: np.ndarray | float,
+    normal_map: np.ndarray | None,
+    to_asset: np.ndarray,
+) -> gltf.Primitive:
+    """The glTF primitive of the atlas mesh at welded ``positions (V, 3)`` (stage frame),
+    moved by ``to_asset (4, 4)``: welded-mesh normals, and with a ``(T, T, 3)`` linear
+    ``albedo`` map (sRGB base-colour texture; a number is a uniform ``baseColorFactor``)
+    and a ``normal_map`` in Mitsuba's tangent frame (re-expressed in glTF's, with the
+    tangents; None: no normal texture); maps in [0, 1], row 0 at ``v = 0``."""
+    atlas = low.atlas_positions(positions)
+    normals = low.atlas_normals(positions)
+    world = atlas @ to_asset[:3, :3].T + to_asset[:3, 3]
+    primitive = gltf.Primitive(world, low.uv_faces, normals, uvs=low.uvs)
+    if np.ndim(albedo) == 0:
+        primitive.base_colour = (float(albedo),) * 3
+    else:
+        primitive.base_colour_png = gltf.png_bytes(srgb(albedo))
+    if normal_map is not None:
+        primitive.tangents = vertex_tangents(atlas, normals, low.uvs, low.uv_faces)
+        change = frame_change(
+            atlas, normals, primitive.tangents, low.uvs, low.uv_faces, len(normal_map)
+        )
+        primitive.normal_png = gltf.png_bytes(to_gltf_normals(change, normal_map))
+    return primitive
 
 
 def obj_text(
@@ -321,22 +234,18 @@ def export(
     obj_paths = [Path(paths[k]) for k in ("obj", "mtl", "texture", "normal_texture")]
     if len({p.parent for p in obj_paths}) != 1:
         raise ValueError(f"OBJ, MTL and textures must share a folder; got {paths}")
-    atlas = low.atlas_positions(positions)
-    normals = low.atlas_normals(positions)
-    tangents = vertex_tangents(atlas, normals, low.uvs, low.uv_faces)
-    change = frame_change(atlas, normals, tangents, low.uvs, low.uv_faces, len(normal_map))
-    colour_png = png_bytes(srgb(albedo))
-    normal_png = png_bytes(to_gltf_normals(change, normal_map))
-    world = atlas @ to_asset[:3, :3].T + to_asset[:3, 3]
+    primitive = atlas_primitive(low, positions, albedo, normal_map, to_asset)
     name = Path(paths["glb"]).stem
-    glb = glb_bytes(world, normals, tangents, low.uvs, low.uv_faces, colour_png, normal_png, name)
+    glb = gltf.glb([primitive], name, GENERATOR)
     obj, mtl, texture, normal_texture = obj_paths
     files = {
         Path(paths["glb"]): glb,
-        obj: obj_text(world, normals, low.uvs, low.uv_faces, mtl.name, name).encode(),
+        obj: obj_text(
+            primitive.positions, primitive.normals, low.uvs, low.uv_faces, mtl.name, name
+        ).encode(),
         mtl: mtl_text(name, texture.name, normal_texture.name).encode(),
-        texture: colour_png,
-        normal_texture: normal_png,
+        texture: primitive.base_colour_png,
+        normal_texture: primitive.normal_png,
     }
     for path, data in files.items():
         with io.atomic_path(path) as tmp:

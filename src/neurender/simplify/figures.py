@@ -1,4 +1,5 @@
-"""Figures of the simplification stage: the held-out comparison and the loss curves."""
+"""Figures of the simplification stage: the held-out comparison, the loss curves and the
+meshes in 3D (PyVista)."""
 
 from __future__ import annotations
 
@@ -69,3 +70,32 @@ def loss_figure(losses: list[pd.DataFrame], path: str) -> None:
     ax.set_ylabel("L1 of sRGB(log(x+1))")
     ax.legend()
     save_figure(fig, path)
+
+
+def meshes_figure(
+    case: str,
+    reference: tuple[np.ndarray, np.ndarray],
+    qem: tuple[np.ndarray, np.ndarray],
+    ours: tuple[np.ndarray, np.ndarray],
+    path: str,
+) -> None:
+    """PyVista figure of one case: the detailed reference surface, the QEM mesh (also the
+    classic bake's) and ours, each ``(vertices (V, 3), faces (F, 3))`` in the stage's
+    frame; the two simplified meshes with their wireframes, ours coloured by each vertex's
+    distance from its QEM position (the optimisation's displacement, stage units)."""
+    from neurender.mesh_figures import Panel, render_panels
+
+    moved = np.linalg.norm(ours[0] - qem[0], axis=1)
+    panels = [
+        Panel(*reference, title=f"{case}: reference, {len(reference[1]):,} triangles"),
+        Panel(*qem, title=f"QEM (and classic bake), {len(qem[1]):,} triangles", edges=True),
+        Panel(
+            *ours,
+            title=f"ours, {len(ours[1]):,} triangles",
+            edges=True,
+            scalars=moved,
+            clim=(0.0, max(float(moved.max()), 1e-9)),
+            scalar_title="moved from QEM",
+        ),
+    ]
+    render_panels(panels, path, (1, 3), (1100, 400))

@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from neurender import io
+from neurender import io, viewer_data
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.simplify import (
     CASE_FILES,
@@ -31,6 +31,7 @@ from neurender.simplify import (
     views,
 )
 from neurender.simplify.optimise import OptimiseConfig, optimise
+from neurender.simplify.viewer import simplify_view
 
 
 def case_views(cfg: dict, case: str, split: str, kind: str) -> list[views.View]:
@@ -153,3 +154,34 @@ def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -
     stats = summary.with_timings(stats, losses, time.perf_counter() - started, params["threads"])
     io.write_csv(outputs["stats"], stats)
     io.write_csv(outputs["targets"], summary.targets(frame, stats))
+
+
+def simplify_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The report's interactive view of one use case (:mod:`neurender.simplify.viewer`):
+    the reference (rebuilt from the case's keys, or read from the user's file) and the
+    QEM, classic-bake and optimised meshes with their triangle counts and held-out PSNR
+    (``metrics``)."""
+    case = params["case"]
+    asset = assets.load(case, params)
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "split", "metric", "value"])
+    view = simplify_view(case, asset, inputs, metrics, assets.constant_albedo(case))
+    viewer_data.write(
+        outputs["viewer"],
+        "meshes",
+        f"Simplification {case}: reference, QEM, classic bake and ours (one camera)",
+        view,
+    )
+
+
+def simplify_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The case's reference, QEM and optimised meshes in 3D with wireframes (PyVista)."""
+    asset = assets.load(params["case"], params)
+    low = formats.load_lowpoly(inputs["lowpoly"])
+    ours = io.load_npz(inputs["mesh"])["positions"]
+    figures.meshes_figure(
+        params["case"],
+        (asset.vertices, asset.faces),
+        (low.positions, low.faces),
+        (ours, low.faces),
+        outputs["png"],
+    )

@@ -50,13 +50,20 @@ def metaballs_demo_params():
     return {**cfg, **section_keys("metaballs", ("width", "radius"))}
 
 
+def metaballs_viewer_params():
+    """The demo's scene and length (not its timing keys) and the image width."""
+    keys = ("demo_frames", "demo_balls")
+    cfg = section_keys("metaballs_model", keys, ("seed", "device"))
+    return {**cfg, **section_keys("metaballs", ("width", "radius"))}
+
+
 def metaballs_user_scenes_file():
     """The user's scenes CSV (its job is only asked for when one is set)."""
     return config["metaballs"]["user_scenes"] or "metaballs.user_scenes is not set"
 
 
 def metaballs_report_tables():
-    tables = ("targets", "metrics", "timing", "data")
+    tables = ("targets", "metrics", "timing", "deployment", "data")
     tables += ("user_scenes",) if config["metaballs"]["user_scenes"] else ()
     return expand("results/metaballs/{table}.csv", table=tables)
 
@@ -76,5 +83,6 @@ def metaballs_report_figures():
 
 
 def metaballs_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
-    return []
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
+    the demo animation."""
+    return ["results/metaballs/viewers/demo.json"]

@@ -161,6 +161,14 @@ def ndr_relight_params(wildcards):
     return section_keys("ndr_model", NDR_RELIGHT_KEYS, ("seed", "device"), **sample)
 
 
+def ndr_viewer_params(wildcards):
+    """The keys that regenerate a test sample, and which sample is relit (the turns are
+    the viewer's own, :data:`neurender.viewer_data.TURNS`)."""
+    sample = {k: config["ndr"][k] for k in ndr_sample_keys("test")}
+    keys = ("mask_erosion", "relight_sample")
+    return section_keys("ndr_model", keys, ("seed", "device"), **sample)
+
+
 def ndr_split_files(split):
     return {
         "dir": f"results/ndr/{split}",
@@ -192,6 +200,20 @@ def ndr_evaluate_inputs(wildcards):
     return inputs
 
 
+def ndr_deploy_inputs(wildcards):
+    """Every variant's checkpoint and the test split of each kind of data they train on
+    (an export is checked on its first samples)."""
+    inputs = {f"checkpoint_{v}": f"results/ndr/models/{v}.pt" for v in NDR_VARIANTS}
+    for v in NDR_VARIANTS:
+        split = "diffuse_test" if v in NDR_DIFFUSE_VARIANTS else "test"
+        inputs.update({f"{split}_{k}": p for k, p in ndr_split_files(split).items()})
+    return inputs
+
+
+def ndr_deploy_params():
+    return section_keys("ndr_model", (), variants=list(NDR_VARIANTS))
+
+
 def ndr_benchmarks():
     """Every NDR job's benchmark file and its threads: the stage's measured time."""
     train_threads = config["ndr_model"]["threads"]
@@ -204,6 +226,7 @@ def ndr_benchmarks():
         + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
         + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
         + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
+        + [("results/benchmarks/ndr_deploy/ndr_deploy.tsv", workflow.cores)]
     )
 
 
@@ -217,7 +240,15 @@ def ndr_targets_params():
 
 
 def ndr_report_tables():
-    tables = ("targets", "metrics", "timing", "relighting", "furnace", "data")
+    tables = (
+        "targets",
+        "metrics",
+        "timing",
+        "deployment",
+        "relighting",
+        "furnace",
+        "data",
+    )
     tables += ("user_objects",) if config["ndr"]["user_objects"] else ()
     return expand("results/ndr/{table}.csv", table=tables)
 
@@ -229,5 +260,6 @@ def ndr_report_figures():
 
 
 def ndr_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
-    return []
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
+    the relit test sample."""
+    return ["results/ndr/viewers/relight.json"]

@@ -73,6 +73,10 @@ def prt_figure_params(wildcards):
     return prt_params(("n_bands",), object=wildcards.object)
 
 
+def prt_mesh_figure_params(wildcards):
+    return prt_params(object=wildcards.object)
+
+
 def prt_benchmark_params():
     keys = PRT_TRANSFER_KEYS + ("directions", "benchmark_paper_scale")
     return prt_params(keys, top=("seed",))
@@ -111,6 +115,11 @@ def prt_test_frame_params(wildcards):
     return prt_params(
         ("n_bands",), ("render_resolution",), ("device",), object=wildcards.object
     )
+
+
+def prt_viewer_params(wildcards):
+    """The report's view (the probes it turns are its input files)."""
+    return prt_params(("n_bands",), top=("device",), object=wildcards.object)
 
 
 def prt_probe_source(wildcards):
@@ -178,13 +187,14 @@ def prt_train_priority(wildcards):
 
 
 def prt_report_tables():
-    tables = ("targets", "metrics", "compression", "data", "noise_floor", "benchmark")
+    tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
+    tables += ("benchmark",)
     experiments = expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS)
     return expand("results/prt/{table}.csv", table=tables) + experiments
 
 
 def prt_report_figures():
-    kinds = ("prediction", "frames")
+    kinds = ("prediction", "frames", "meshes")
     per_object = expand(
         "results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds
     )
@@ -198,5 +208,6 @@ def prt_report_figures():
 
 
 def prt_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
-    return []
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
+    one per object."""
+    return expand("results/prt/viewers/{object}.json", object=PRT_OBJECTS)

@@ -64,6 +64,17 @@ def simplify_prepare_inputs(wildcards):
     return {"asset": path, "asset_files": named}
 
 
+def simplify_viewer_params(wildcards):
+    """The keys that rebuild a case's reference (a user asset: its entry), not those
+    that render it (the viewer and the mesh figure)."""
+    case = wildcards.case
+    if case in SIMPLIFY_USER_ASSETS:
+        return section_keys(
+            "simplify", (), ("seed",), case=case, asset=SIMPLIFY_USER_ASSETS[case]
+        )
+    return section_keys("simplify", SIMPLIFY_CASE_KEYS[case], ("seed",), case=case)
+
+
 def simplify_optimise_params(wildcards):
     return section_keys(
         "simplify", SIMPLIFY_OPTIMISE_KEYS, ("seed", "device"), case=wildcards.case
@@ -119,12 +130,9 @@ def simplify_report_tables():
 
 
 def simplify_report_figures():
-    names = ("comparison", "loss_curves")
-    return (
-        expand("results/simplification/figures/{name}.png", name=names)
-        if SIMPLIFY_CASES
-        else []
-    )
+    names = ("comparison", "loss_curves") if SIMPLIFY_CASES else ()
+    names += tuple(f"{case}_meshes" for case in SIMPLIFY_CASES)
+    return expand("results/simplification/figures/{name}.png", name=names)
 
 
 wildcard_constraints:
@@ -132,5 +140,6 @@ wildcard_constraints:
 
 
 def simplify_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views."""
-    return []
+    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
+    one per use case (built-in and user assets)."""
+    return expand("results/simplification/viewers/{case}.json", case=SIMPLIFY_CASES)

@@ -25,11 +25,17 @@ function element(tag, attrs = {}, parent = null) {
   return el;
 }
 
-function slider(parent, label, min, max, step, value, onInput) {
+// A labelled range input; `show(value)` (optional) gives the text shown beside it.
+function slider(parent, label, min, max, step, value, onInput, show = null) {
   const wrap = element("label", { class: "control" }, parent);
   wrap.append(`${label} `);
   const input = element("input", { type: "range", min, max, step, value }, wrap);
-  input.addEventListener("input", () => onInput(Number(input.value)));
+  const readout = show ? element("span", { class: "readout", text: ` ${show(value)}` }, wrap) : null;
+  input.addEventListener("input", () => {
+    const v = Number(input.value);
+    if (readout) readout.textContent = ` ${show(v)}`;
+    onInput(v);
+  });
   return input;
 }
 
@@ -148,7 +154,8 @@ function mountPrt(root, data) {
     view.render();
   };
   select(controls, "probe", Object.keys(probes), (v) => { state.probe = v; update(); });
-  slider(controls, "turn the light (degrees)", 0, probes[state.probe].turns.length - 1, 1, 0, (v) => { state.turn = v; update(); });
+  slider(controls, "turn the probe about +y", 0, probes[state.probe].turns.length - 1, 1, 0, (v) => { state.turn = v; update(); },
+    (v) => `${Math.round(probes[state.probe].turns[v])} deg`);
   select(controls, "show", ["shaded", "error x10 vs ground truth"], (v) => { state.mode = v === "shaded" ? "shaded" : "error"; update(); });
   update();
   return view;
@@ -215,7 +222,8 @@ function mountFrames(root, data) {
       if (state.overlay && over) { ctx.globalAlpha = 0.6; ctx.drawImage(over, 0, 0, canvas.width, canvas.height); ctx.globalAlpha = 1; }
     });
   };
-  slider(controls, data.label || "frame", 0, count - 1, 1, 0, (v) => { state.index = v; draw(); });
+  slider(controls, data.label || "frame", 0, count - 1, 1, 0, (v) => { state.index = v; draw(); },
+    (v) => (data.steps ? data.steps[v] : `${v + 1} / ${count}`));
   if (overlays) {
     const wrap = element("label", { class: "control" }, controls);
     const box = element("input", { type: "checkbox" }, wrap);

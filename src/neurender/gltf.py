@@ -1,0 +1,186 @@
+"""glTF 2.0 binary (GLB) files of triangle meshes, written without a dependency.
+
+One node and one mesh per file; each :class:`Primitive` is one primitive with its own
+material. Materials are the pipeline's Lambertian reflector in glTF's terms:
+``metallicFactor`` 0, ``roughnessFactor`` 1 and ``KHR_materials_specular`` with
+``specularFactor`` 0 (a viewer without the extension shows a rough dielectric with a
+faint sheen). Conventions (glTF's): right-handed, y up; ``TEXCOORD_0`` with ``v`` pointing
+down the image (row 0 of a texture is the image's top row); ``baseColorFactor`` and
+``COLOR_0`` linear, base-colour textures sRGB-encoded PNG, normal textures linear
+``(n + 1) / 2`` in the frame of ``TANGENT`` (``(T, w)``, bitangent ``cross(N, T) w``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io as _io
+import json
+import struct
+
+import numpy as np
+from PIL import Image
+
+from neurender import io
+
+FLOAT, UNSIGNED_SHORT, UNSIGNED_INT = 5126, 5123, 5125  # component types
+ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
+LINEAR, LINEAR_MIPMAP_LINEAR = 9729, 9987
+CLAMP_TO_EDGE, REPEAT = 33071, 10497
+
+
+@dataclasses.dataclass
+class Primitive:
+    """One triangle mesh with one material.
+
+    Attributes:
+        positions: ``(N, 3)`` vertex positions; faces: ``(F, 3)`` vertex indices.
+        normals: ``(N, 3)`` unit shading normals, or None (viewers then shade flat).
+        tangents: ``(N, 4)`` glTF tangents (needed with ``normal_png``), or None.
+        uvs: ``(N, 2)`` texture coordinates (``v`` down the image), or None.
+        colours: ``(N, 3)`` linear vertex colours (``COLOR_0``), or None.
+        base_colour: linear ``(3,)`` factor (it multiplies the texture and the colours).
+        base_colour_png, normal_png: PNG bytes of the textures (need ``uvs``), or None.
+        wrap: the textures' sampler wrap mode, :data:`CLAMP_TO_EDGE` or :data:`REPEAT`.
+    """
+
+    positions: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+    tangents: np.ndarray | None = None
+    uvs: np.ndarray | None = None
+    colours: np.ndarray | None = None
+    base_colour: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    base_colour_png: bytes | None = None
+    normal_png: bytes | None = None
+    wrap: int = CLAMP_TO_EDGE
+
+
+def png_bytes(values: np.ndarray) -> bytes:
+    """An ``(H, W, 3)`` array of values in [0, 1] as 8-bit RGB PNG bytes."""
+    buffer = _io.BytesIO()
+    Image.fromarray(io.to_uint8(values)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def glb(primitives: list[Primitive], name: str, generator: str = "neurender") -> bytes:
+    """The GLB bytes of one mesh made of ``primitives``; indices are 16-bit where a
+    primitive has fewer than 65536 vertices, else 32-bit."""
+    chunks: list[bytes] = []
+    views: list[dict] = []
+    accessors: list[dict] = []
+
+    def view(data: bytes, target: int | None = None) -> int:
+        offset = sum(len(c) for c in chunks)
+        entry = {"buffer": 0, "byteOffset": offset, "byteLength": len(data)}
+        if target is not None:
+            entry["target"] = target
+        chunks.append(data + b"\0" * (-len(data) % 4))
+        views.append(entry)
+        return len(views) - 1
+
+    def accessor(array: np.ndarray, kind: str, component: int, target: int, bounds=False) -> int:
+        dtype = {FLOAT: np.float32, UNSIGNED_SHORT: np.uint16, UNSIGNED_INT: np.uint32}[component]
+        data = np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<"))
+        entry = {
+            "bufferView": view(data.tobytes(), target),
+            "componentType": component,
+            "count": len(data) if data.ndim > 1 else data.size,
+            "type": kind,
+        }
+        if bounds:
+            entry["min"] = data.min(0).tolist()
+            entry["max"] = data.max(0).tolist()
+        accessors.append(entry)
+        return len(accessors) - 1
+
+    images: list[dict] = []
+    textures: list[dict] = []
+    samplers: list[dict] = []
+
+    def texture(png: bytes, wrap: int) -> dict:
+        sampler = {
+            "magFilter": LINEAR,
+            "minFilter": LINEAR_MIPMAP_LINEAR,
+            "wrapS": wrap,
+            "wrapT": wrap,
+        }
+        if sampler not in samplers:
+            samplers.append(sampler)
+        images.append({"bufferView": view(png), "mimeType": "image/png"})
+        textures.append({"sampler": samplers.index(sampler), "source": len(images) - 1})
+        return {"index": len(textures) - 1}
+
+    gl_primitives, materials = [], []
+    for k, p in enumerate(primitives):
+        for key in ("normals", "tangents", "uvs", "colours"):
+            value = getattr(p, key)
+            if value is not None and len(value) != len(p.positions):
+                raise ValueError(
+                    f"glTF primitive {k} of {name}: {len(value)} {key} for "
+                    f"{len(p.positions)} positions"
+                )
+        if (p.base_colour_png or p.normal_png) and p.uvs is None:
+            raise ValueError(f"glTF primitive {k} of {name}: textures need texture coordinates")
+        if p.normal_png and p.tangents is None:
+            raise ValueError(f"glTF primitive {k} of {name}: a normal texture needs tangents")
+        attributes = {"POSITION": accessor(p.positions, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True)}
+        for semantic, key, kind in (
+            ("NORMAL", "normals", "VEC3"),
+            ("TANGENT", "tangents", "VEC4"),
+            ("TEXCOORD_0", "uvs", "VEC2"),
+            ("COLOR_0", "colours", "VEC3"),
+        ):
+            if getattr(p, key) is not None:
+                attributes[semantic] = accessor(getattr(p, key), kind, FLOAT, ARRAY_BUFFER)
+        short = len(p.positions) < 65536
+        indices = accessor(
+            np.asarray(p.faces).ravel(),
+            "SCALAR",
+            UNSIGNED_SHORT if short else UNSIGNED_INT,
+            ELEMENT_ARRAY_BUFFER,
+        )
+        pbr: dict = {
+            "baseColorFactor": [float(c) for c in p.base_colour] + [1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 1.0,
+        }
+        if p.base_colour_png:
+            pbr["baseColorTexture"] = texture(p.base_colour_png, p.wrap)
+        material: dict = {
+            "name": f"{name}_{k}" if len(primitives) > 1 else name,
+            "pbrMetallicRoughness": pbr,
+            "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
+        }
+        if p.normal_png:
+            material["normalTexture"] = texture(p.normal_png, p.wrap)
+        materials.append(material)
+        gl_primitives.append(
+            {"attributes": attributes, "indices": indices, "material": k, "mode": 4}
+        )
+    tree: dict = {
+        "asset": {"version": "2.0", "generator": generator},
+        "extensionsUsed": ["KHR_materials_specular"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "name": name}],
+        "meshes": [{"name": name, "primitives": gl_primitives}],
+        "materials": materials,
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": sum(len(c) for c in chunks)}],
+    }
+    if textures:
+        tree |= {"samplers": samplers, "textures": textures, "images": images}
+    text = json.dumps(tree, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    binary = b"".join(chunks)
+    total = 12 + 8 + len(text) + 8 + len(binary)
+    return b"".join(
+        [
+            struct.pack("<4sII", b"glTF", 2, total),
+            struct.pack("<I4s", len(text), b"JSON"),
+            text,
+            struct.pack("<I4s", len(binary), b"BIN\0"),
+            binary,
+        ]
+    )

@@ -1,0 +1,79 @@
+"""The metaballs deployment job: each trained generator as an ONNX file that renders what
+the renderer renders, one image at a time for the GAN-trained one."""
+
+import numpy as np
+import pytest
+import torch
+
+from neurender.deployment import COLUMNS, read_deployment
+from neurender.metaballs import GAN_VARIANTS, VARIANTS, jobs, scenes
+from neurender.metaballs.renderer import MetaballRenderer
+from neurender.nn.inference import OnnxNetwork
+from neurender.nn.unet import count_parameters
+
+WIDTH = 32
+
+
+@pytest.fixture(scope="module")
+def deployed(tmp_path_factory):
+    """The deploy job's outputs for every variant, each trained for one epoch."""
+    tmp = tmp_path_factory.mktemp("metaballs_deploy")
+    files = {}
+    for split, count in (("train", 4), ("val", 2), ("test", 1)):
+        params = {"seed": 1, "width": WIDTH, "balls": [2, 4], "radius": [1, 2]}
+        outputs = {
+            "examples": str(tmp / split),
+            "manifest": str(tmp / f"{split}_manifest.csv"),
+            "balls": str(tmp / f"{split}_balls.csv"),
+        }
+        jobs.metaballs_examples({}, outputs, params | {"split": split, "examples": count}, 1)
+        files |= {f"{split}_dir": outputs["examples"]}
+        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
+    checkpoints = []
+    for variant in VARIANTS:
+        params = {"seed": 1, "device": "cpu", "width": WIDTH, "variant": variant, "ngf": 4}
+        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
+        params |= {"lr_schedule": "constant", "ndf": 4}
+        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
+        checkpoints.append(str(tmp / f"{variant}.pt"))
+        outputs = {"checkpoint": checkpoints[-1], "loss": str(tmp / f"{variant}.csv")}
+        jobs.metaballs_train(files, outputs, params, 1)
+    inputs = {"test_balls": files["test_balls"], "checkpoints": checkpoints}
+    outputs = {
+        "onnx": [str(tmp / "onnx" / f"{v}.onnx") for v in VARIANTS],
+        "table": str(tmp / "deployment.csv"),
+    }
+    jobs.metaballs_deploy(inputs, outputs, {}, 1)
+    return inputs, outputs
+
+
+def test_one_row_per_variant_with_its_size_and_positive_times(deployed):
+    inputs, outputs = deployed
+    table = read_deployment(outputs["table"])
+    assert list(table.columns) == list(COLUMNS)
+    assert list(table.network) == list(VARIANTS) and set(table.method) == {"metaballs"}
+    assert (table.resolution == f"{WIDTH}x{WIDTH}").all()
+    for row, checkpoint, onnx_file in zip(
+        table.itertuples(), inputs["checkpoints"], outputs["onnx"], strict=True
+    ):
+        assert row.parameters == count_parameters(MetaballRenderer(checkpoint, "cpu").model)
+        assert row.onnx_file == onnx_file
+        with open(onnx_file, "rb") as f:
+            assert row.onnx_bytes == len(f.read())
+        assert 0 <= row.max_abs_diff_vs_pytorch <= 1e-3
+    assert (table.onnxruntime_ms_per_frame > 0).all() and (table.pytorch_ms_per_frame > 0).all()
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_the_file_renders_what_the_renderer_renders_on_fresh_scenes(deployed, variant):
+    inputs, outputs = deployed
+    renderer = MetaballRenderer(inputs["checkpoints"][VARIANTS.index(variant)], "cpu")
+    gen = torch.Generator().manual_seed(7)
+    fresh = [scenes.sample_scene(n, (1.0, 2.0), gen).to(torch.float32) for n in (2, 4, 6)]
+    x = torch.stack([renderer.inputs(scene) for scene in fresh])
+    # Three different images in one batch: a GAN-trained generator's graph must normalise
+    # each with its own statistics, as the renderer does one image at a time.
+    expected = renderer(x).numpy()
+    got = OnnxNetwork(outputs["onnx"][VARIANTS.index(variant)])(x.numpy())
+    np.testing.assert_allclose(got, expected, atol=1e-4)
+    assert not np.allclose(got[0], got[1], atol=1e-3)  # the images differ

@@ -1,0 +1,117 @@
+"""The NDR deployment job: each trained variant as an ONNX file that computes its network."""
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from neurender import io
+from neurender.deployment import COLUMNS, read_deployment
+from neurender.ndr import jobs
+from neurender.ndr.buffers import BUFFERS, NOISY, NDRDataset, channels, lighting_rows
+from neurender.ndr.deploy import NDRGraph, graph_inputs
+from neurender.ndr.model import load_model
+from neurender.nn.inference import OnnxNetwork, onnx_metadata
+from neurender.nn.unet import count_parameters
+
+WIDTH = 32
+#: A complex-data variant, the pix2pix baseline and a diffuse-data one.
+DEPLOYED = ("ndr", "pix2pix", "real_shading")
+
+
+def _write_split(folder, split: str, count: int, seed: int) -> dict[str, str]:
+    """A split of random buffers in the file format of :mod:`neurender.ndr.buffers`."""
+    rng = np.random.default_rng(seed)
+    samples, manifest, lighting = folder / split, [], []
+    for i in range(count):
+        out = {}
+        for group, suffixes in {**BUFFERS, **NOISY}.items():
+            shape = (WIDTH, WIDTH, len(suffixes)) if suffixes else (WIDTH, WIDTH)
+            values = rng.random(shape, dtype=np.float32)
+            if group == "N":
+                values = values * 2 - 1
+                values /= np.linalg.norm(values, axis=-1, keepdims=True)
+            elif group == "mask":
+                values = (values > 0.2).astype(np.float32)
+            elif group.startswith(("S_", "I_")):
+                values = 4 * values  # HDR
+            out.update(channels(group, values))
+        io.write_exr(samples / f"{i:05d}.exr", out)
+        manifest.append({"sample": i, "file": f"{i:05d}.exr"})
+        lighting += lighting_rows(i, rng.normal(size=75).astype(np.float32))
+    files = {
+        "dir": str(samples),
+        "manifest": str(folder / f"{split}_manifest.csv"),
+        "lighting": str(folder / f"{split}_lighting.csv"),
+    }
+    io.write_csv(files["manifest"], pd.DataFrame(manifest))
+    io.write_csv(files["lighting"], pd.DataFrame(lighting))
+    return files
+
+
+def _split_inputs(prefix: str, files: dict[str, str]) -> dict[str, str]:
+    return {f"{prefix}_{key}": path for key, path in files.items()}
+
+
+@pytest.fixture(scope="module")
+def deployed(tmp_path_factory):
+    """The deploy job's outputs for :data:`DEPLOYED`, each trained for one epoch, and a
+    fresh test split that neither training nor the export's check saw."""
+    tmp = tmp_path_factory.mktemp("ndr_deploy")
+    inputs = {}
+    for prefix in ("", "diffuse_"):
+        train = _write_split(tmp, f"{prefix}train", 4, 1)
+        val = _write_split(tmp, f"{prefix}val", 2, 2)
+        inputs |= _split_inputs(f"{prefix}test", _write_split(tmp, f"{prefix}test", 1, 3))
+        for variant in DEPLOYED:
+            if (variant == "real_shading") != (prefix == "diffuse_"):
+                continue
+            params = {"seed": 0, "device": "cpu", "variant": variant, "mask_erosion": 1}
+            params |= {"epochs": 1, "batch_size": 2, "lr": 1e-3, "lr_schedule": "constant"}
+            params |= {"widths": [4, 8], "sh_hidden": 8, "shading_residual": True}
+            params |= {"ngf": 4, "ndf": 4, "width": WIDTH, "l1_weight": 100.0, "gan_weight": 1.0}
+            checkpoint = str(tmp / f"{variant}.pt")
+            train_files = _split_inputs("train", train) | _split_inputs("val", val)
+            outputs = {"checkpoint": checkpoint, "loss": str(tmp / f"{variant}_loss.csv")}
+            jobs.ndr_train(train_files, outputs, params, 1)
+            inputs[f"checkpoint_{variant}"] = checkpoint
+    outputs = {
+        "onnx": [str(tmp / "onnx" / f"{v}.onnx") for v in DEPLOYED],
+        "table": str(tmp / "deployment.csv"),
+    }
+    jobs.ndr_deploy(inputs, outputs, {"variants": list(DEPLOYED)}, 1)
+    fresh = NDRDataset.from_files(_write_split(tmp, "fresh", 3, 4), 0)
+    return inputs, outputs, fresh
+
+
+def test_one_row_per_variant_with_its_file_size_and_positive_times(deployed):
+    inputs, outputs, _ = deployed
+    table = read_deployment(outputs["table"])
+    assert list(table.columns) == list(COLUMNS)
+    assert list(table.network) == list(DEPLOYED) and set(table.method) == {"ndr"}
+    assert (table.resolution == f"{WIDTH}x{WIDTH}").all()
+    for row, onnx_file in zip(table.itertuples(), outputs["onnx"], strict=True):
+        model = load_model(inputs[f"checkpoint_{row.network}"], torch.device("cpu"))
+        assert row.parameters == count_parameters(model)
+        assert row.onnx_file == onnx_file
+        with open(onnx_file, "rb") as f:
+            assert row.onnx_bytes == len(f.read())
+        stored = float(onnx_metadata(onnx_file)["neurender.max_abs_diff_vs_pytorch"])
+        assert row.max_abs_diff_vs_pytorch == pytest.approx(stored, rel=1e-2, abs=1e-12)
+        assert 0 <= row.max_abs_diff_vs_pytorch <= 1e-3
+    assert (table.onnxruntime_ms_per_frame > 0).all() and (table.pytorch_ms_per_frame > 0).all()
+    assert (table.threads == 1).all() and table.hardware.str.contains("1 thread").all()
+
+
+@pytest.mark.parametrize("variant", DEPLOYED)
+def test_the_file_renders_what_pytorch_renders_on_fresh_samples(deployed, variant):
+    inputs, outputs, fresh = deployed
+    model = load_model(inputs[f"checkpoint_{variant}"], torch.device("cpu"))
+    batch = {"light": fresh.light, **fresh.buffers}  # 3 samples: a batch size never exported
+    x = graph_inputs(model, batch)
+    with torch.inference_mode():
+        expected = NDRGraph(model)(*x).numpy()
+        assert np.allclose(expected, model(batch)["I_R"].numpy())  # the graph is the model
+    got = OnnxNetwork(outputs["onnx"][DEPLOYED.index(variant)])(*(t.numpy() for t in x))
+    assert got.shape == (3, 3, WIDTH, WIDTH)
+    np.testing.assert_allclose(got, expected, rtol=1e-4, atol=1e-4)

@@ -1,0 +1,138 @@
+"""The DeepPRT viewer: its file decodes to the frame's arrays, the page's shading with a
+turned probe equals relighting with the turned map, and the job and the mesh figure run on
+a tiny object as the workflow calls them."""
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from neurender import sh, viewer_data
+from neurender.geometry import grid_faces
+from neurender.prt import frames, jobs, transfer
+from neurender.prt.viewer import TURNS, prt_view
+
+N, K = 6, 16
+#: The prt keys the data jobs read, at test sizes.
+CFG = {
+    "seed": 5,
+    "resolution": 8,
+    "source_vertices": 300,
+    "frames": {"train": 3, "val": 1, "test": 2},
+    "n_bands": 4,
+    "direction_sets": 2,
+    "ray_offset": 1e-3,
+    "directions": 16,
+    "probe_height": 16,
+    "experiment_train_frames": 2,
+    "experiment_points": 3,
+    "linear_range": [-0.25, 1.25],
+    "excluded_expression": "jaw_open",
+}
+
+
+def _split(frames_=3, seed=0):
+    rng = np.random.default_rng(seed)
+    f = lambda *shape: rng.normal(size=shape).astype(np.float32)  # noqa: E731
+    return frames.Split(
+        f(frames_, N, N, 3),
+        f(frames_, N, N, 3),
+        f(frames_, N, N, K),
+        f(frames_, N, N, 3, K),
+        f(frames_, 2),
+    )
+
+
+def test_the_viewer_data_decode_to_the_frame_and_the_predictions():
+    data = _split()
+    predictions = {"DeepPRT": np.random.default_rng(1).normal(size=(3, K, N, N))}
+    view = prt_view(data, 1, predictions, {"sky": np.ones((K, 3))}, 4)
+    decode = viewer_data.decode_array
+    np.testing.assert_array_equal(
+        decode(view["positions"], "f4", (N * N, 3)), data.positions[1].reshape(-1, 3)
+    )
+    np.testing.assert_array_equal(decode(view["indices"], "u4", (-1, 3)), grid_faces(N))
+    assert list(view["transfer"]) == ["ground truth", "DeepPRT"] and view["coefficients"] == K
+    truth = decode(view["transfer"]["ground truth"], "f4", (N, N, K))
+    np.testing.assert_array_equal(truth, data.diffuse[1])
+    predicted = decode(view["transfer"]["DeepPRT"], "f4", (N, N, K))
+    np.testing.assert_allclose(predicted, np.moveaxis(predictions["DeepPRT"][1], 0, -1))
+    assert view["probes"]["sky"]["turns"] == [360.0 * t / TURNS for t in range(TURNS)]
+
+
+@pytest.mark.parametrize("turn", [0, 1, 5, 12, 23])
+def test_shading_under_a_turned_probe_equals_relighting_with_the_turned_map(turn):
+    """Turn ``t`` is ``360 t / 24`` degrees about +y: on a 48-column map, the map rolled by
+    ``-2 t`` columns (a right-handed turn moves content to smaller u)."""
+    coeffs = np.random.default_rng(2).normal(size=(K, 3))
+    image = sh.reconstruct_latlong(coeffs, 24, 48)
+    data = _split()
+    view = prt_view(data, 0, {}, {"probe": sh.project_latlong(image, 4)}, 4)
+    lights = viewer_data.decode_array(view["probes"]["probe"]["lights"], "f4", (TURNS, K, 3))
+    t = viewer_data.decode_array(view["transfer"]["ground truth"], "f4", (N * N, K))
+    in_page = np.einsum("vj,jc->vc", t, lights[turn]) / np.pi  # what viewers.js computes
+    direct = transfer.relight_diffuse(
+        data.diffuse[0].reshape(-1, K), sh.project_latlong(np.roll(image, -2 * turn, axis=1), 4)
+    )
+    np.testing.assert_allclose(in_page, direct, atol=2e-3 * np.abs(direct).max())
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A tiny head through the DeepPRT jobs: probes, frames of every split, a one-epoch
+    network and MoMoPRT."""
+    d = tmp_path_factory.mktemp("viewer")
+    for probe in ("sky", "sunset"):
+        jobs.prt_probe(
+            {}, {"exr": d / f"{probe}.exr", "sh": d / f"{probe}_sh.csv"}, {**CFG, "probe": probe}, 1
+        )
+    cfg = {**CFG, "object": "head"}
+    jobs.prt_geometry_image({}, {"gim": d / "gim.npz", "stats": d / "gim.csv"}, cfg, 1)
+    jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, cfg, 1)
+    files = {"seq": str(d / "seq.npz")}
+    for split in ("train", "val", "test"):
+        jobs.prt_transfer(
+            {"seq": d / "seq.npz", "light": d / "sky_sh.csv"},
+            {"frames": d / split, "manifest": d / f"{split}.csv"},
+            {**cfg, "split": split},
+            1,
+        )
+        files |= {f"{split}_dir": str(d / split), f"{split}_manifest": str(d / f"{split}.csv")}
+    model = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
+    model |= {"lr_schedule": "constant", "residual_targets": True, "device": "cpu"}
+    model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3]}
+    nets = {"checkpoint": d / "net.pt", "onnx": d / "net.onnx", "loss": d / "loss.csv"}
+    jobs.prt_train(files, nets, {**CFG, **model}, 1)
+    jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
+    return d, files
+
+
+def test_the_viewer_job_writes_every_model_and_probe(trained):
+    d, files = trained
+    inputs = files | {"deepprt": str(d / "net.pt"), "onnx": str(d / "net.onnx")}
+    inputs |= {
+        "momoprt": str(d / "momo.npz"),
+        "probes": [str(d / "sky_sh.csv"), str(d / "sunset_sh.csv")],
+    }
+    params = {"n_bands": 4, "device": "cpu", "object": "head"}
+    jobs.prt_viewer(inputs, {"viewer": d / "viewer.json"}, params, 1)
+    viewer = viewer_data.read(d / "viewer.json")
+    assert viewer["kind"] == "prt" and "head" in viewer["title"]
+    data = viewer["data"]
+    assert list(data["transfer"]) == ["ground truth", "DeepPRT", "MoMoPRT"]
+    assert list(data["probes"]) == ["sky", "sunset"]
+    test = frames.read_frame(d / "test" / "frame_0000.exr", 4)
+    truth = viewer_data.decode_array(data["transfer"]["ground truth"], "f4", test["T"].shape)
+    np.testing.assert_array_equal(truth, test["T"])
+    light = viewer_data.decode_array(data["probes"]["sunset"]["lights"], "f4", (TURNS, K, 3))
+    np.testing.assert_allclose(light[0], frames.read_sh_light(d / "sunset_sh.csv"), atol=1e-6)
+
+
+def test_the_mesh_figure_job_draws_the_geometry_image_and_frames(trained):
+    d, files = trained
+    out = d / "figures" / "head_meshes.png"
+    jobs.prt_mesh_figure(
+        {"gim": str(d / "gim.npz"), "seq": files["seq"]}, {"png": out}, {"object": "head"}, 1
+    )
+    image = np.asarray(Image.open(out).convert("RGB"))
+    assert image.shape == (550, 1100, 3)
+    assert (image.sum(-1) < 600).mean() > 0.05  # meshes drawn on the white background
