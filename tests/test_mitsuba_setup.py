@@ -57,3 +57,27 @@ def test_envmap_rows_keeps_a_one_texel_sun_where_it_is(mitsuba):
 def test_envmap_rows_refuses_too_few_subrows():
     with pytest.raises(ValueError, match="subrows"):
         mitsuba_setup.envmap_rows(np.ones((4, 8, 3)), subrows=1)
+
+
+def test_auto_picks_the_cuda_variant_only_with_a_driver():
+    assert mitsuba_setup.variant_for("auto", has_cuda=True) == "cuda_ad_rgb"
+    assert mitsuba_setup.variant_for("auto", has_cuda=False) == "llvm_ad_rgb"
+    with pytest.raises(RuntimeError, match="no CUDA driver"):
+        mitsuba_setup.variant_for("cuda", has_cuda=False)
+
+
+@pytest.mark.skipif(not mitsuba_setup.cuda_available(), reason="needs a CUDA driver Dr.Jit can use")
+def test_cuda_and_llvm_variants_render_the_same_envmap():
+    """The GPU variant sees a map where the CPU one does (same radiance at texel centres)."""
+    image = np.random.default_rng(0).uniform(0.1, 2.0, (8, 16, 3)).astype(np.float32)
+    dirs, _ = sh.latlong_directions(8, 16)
+    values = []
+    for device in ("cpu", "cuda"):
+        values.append(
+            _envmap_radiance(
+                mitsuba_setup.import_mitsuba(device),
+                mitsuba_setup.envmap_rows(image),
+                dirs.reshape(-1, 3),
+            )
+        )
+    np.testing.assert_allclose(values[0], values[1], rtol=1e-5)

@@ -225,3 +225,18 @@ def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
     b = train.load_checkpoint(tmp_path / "r.pt")["last_model"]
     for k in a:  # dropout draws from the CUDA generator: equal only if it was restored
         torch.testing.assert_close(a[k], b[k])
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_two_cuda_runs_with_one_seed_are_identical(tmp_path):
+    train_set, val_set = _problem()
+    cfg = train.TrainConfig(epochs=2, batch_size=8, lr=0.05, seed=5, device="cuda")
+    runs = []
+    for name in ("a", "b"):
+        model = _model()
+        train.fit(
+            model, train_set, val_set, _loss, cfg, tmp_path / f"{name}.pt", tmp_path / "l.csv"
+        )
+        runs.append(train.load_checkpoint(tmp_path / f"{name}.pt")["last_model"])
+    for k in runs[0]:
+        torch.testing.assert_close(runs[0][k], runs[1][k], rtol=0, atol=0)

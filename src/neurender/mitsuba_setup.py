@@ -41,12 +41,8 @@ def variant_for(device: str, has_cuda: bool) -> str:
     return "cuda_ad_rgb" if has_cuda else "llvm_ad_rgb"
 
 
-def import_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
-    """Return ``(mitsuba, drjit)`` with a differentiable RGB variant set.
-
-    Raises:
-        RuntimeError: with the install command when Mitsuba or LLVM is missing.
-    """
+def _import() -> tuple[ModuleType, ModuleType]:
+    """``(mitsuba, drjit)``, imported with the LLVM library pointed to first."""
     if "DRJIT_LIBLLVM_PATH" not in os.environ and (llvm := bundled_llvm()):
         os.environ["DRJIT_LIBLLVM_PATH"] = llvm
     try:
@@ -54,6 +50,22 @@ def import_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
         import mitsuba as mi
     except ImportError as err:
         raise RuntimeError(f"Mitsuba 3 is not installed ({err}); run: {INSTALL_HINT}") from err
+    return mi, dr
+
+
+def cuda_available() -> bool:
+    """Whether Dr.Jit finds a CUDA driver (Mitsuba's ``cuda_ad_rgb`` can run)."""
+    _, dr = _import()
+    return bool(dr.has_backend(dr.JitBackend.CUDA))
+
+
+def import_mitsuba(device: str = "auto") -> tuple[ModuleType, ModuleType]:
+    """Return ``(mitsuba, drjit)`` with a differentiable RGB variant set.
+
+    Raises:
+        RuntimeError: with the install command when Mitsuba or LLVM is missing.
+    """
+    mi, dr = _import()
     variant = variant_for(device, dr.has_backend(dr.JitBackend.CUDA))
     if variant.startswith("llvm") and not dr.has_backend(dr.JitBackend.LLVM):
         raise RuntimeError(

@@ -19,6 +19,7 @@ import dataclasses
 import hashlib
 import logging
 import math
+import os
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -83,7 +84,9 @@ class TrainConfig:
 
 
 def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
-    """Torch device for a config value; on the CPU also sets the torch thread count."""
+    """Torch device for a config value; on the CPU also sets the torch thread count, on
+    CUDA picks deterministic kernels (a fixed seed then gives the same run: cuDNN without
+    autotuning, cuBLAS with a fixed workspace; ops without a deterministic kernel warn)."""
     if name == "auto":
         name = "cuda" if torch.cuda.is_available() else "cpu"
     device = torch.device(name)
@@ -93,6 +96,12 @@ def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
         )
     if device.type == "cpu":
         torch.set_num_threads(max(1, threads))
+    else:
+        # Read by cuBLAS when its first handle is made, i.e. after this on a fresh process.
+        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+        torch.backends.cudnn.benchmark = False
+        torch.backends.cudnn.deterministic = True
+        torch.use_deterministic_algorithms(True, warn_only=True)
     return device
 
 
