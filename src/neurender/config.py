@@ -11,9 +11,10 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from neurender import asset_files
 from neurender.lights import BUILTIN_PROBES
 from neurender.metaballs.scene_file import read_user_scenes
-from neurender.ndr import assets as ndr_assets
+from neurender.ndr import MESH_SUFFIXES as NDR_MESH_SUFFIXES
 from neurender.prt import OBJECTS, RESERVED, user_sequence_problems
 
 
@@ -128,18 +129,18 @@ def _ndr_problems(config: Mapping) -> Iterator[str]:
     for name, path in ndr["user_objects"].items():
         if made_by_the_workflow(path):
             continue
-        if Path(path).suffix.lower() not in ndr_assets.MESH_SUFFIXES:
+        if Path(path).suffix.lower() not in NDR_MESH_SUFFIXES:
             yield (
                 f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
-                f"({', '.join(ndr_assets.MESH_SUFFIXES)})"
+                f"({', '.join(NDR_MESH_SUFFIXES)})"
             )
         elif not Path(path).is_file():
             yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
         else:
-            for missing in ndr_assets.missing_files(path):
-                yield (
-                    f"ndr.user_objects entry {name!r}: {path} names {missing}, which does not exist"
-                )
+            yield from (
+                f"ndr.user_objects entry {name!r}: {problem}"
+                for problem in asset_files.missing(path)
+            )
 
 
 def _metaballs_problems(config: Mapping) -> Iterator[str]:
@@ -158,7 +159,6 @@ def _metaballs_problems(config: Mapping) -> Iterator[str]:
 
 def _simplify_problems(config: Mapping) -> Iterator[str]:
     from neurender.simplify import CASES
-    from neurender.simplify.asset_files import SUFFIXES, missing
 
     simplify = config["simplify"]
     detail = 2 * simplify["head_vertices"]
@@ -172,14 +172,17 @@ def _simplify_problems(config: Mapping) -> Iterator[str]:
         path = entry["path"]
         if name in CASES:
             yield f"{key}: the name of a built-in case ({', '.join(CASES)}); pick another"
-        if Path(path).suffix.lower() not in SUFFIXES:
-            yield f"{key}.path = {path!r}: expected a mesh file ({', '.join(SUFFIXES)})"
+        if Path(path).suffix.lower() not in asset_files.TRIMESH_SUFFIXES:
+            suffixes = ", ".join(asset_files.TRIMESH_SUFFIXES)
+            yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
         elif made_by_the_workflow(path):
             continue
         elif not Path(path).is_file():
             yield f"{key}.path = {path!r}: file does not exist"
         else:
-            yield from (f"{key}.path = {path!r}: {problem}" for problem in missing(path))
+            yield from (
+                f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)
+            )
 
 
 def problems(config: Mapping[str, Any]) -> list[str]:

@@ -9,7 +9,8 @@ import pyvista as pv
 import trimesh
 from PIL import Image
 
-from neurender.ndr import assets, data, user_objects
+from neurender import asset_files
+from neurender.ndr import MESH_SUFFIXES, data, user_objects
 
 DEFAULTS = {"base_colour": [0.8, 0.7, 0.6], "specular": 0.04, "roughness": 0.5}
 
@@ -122,7 +123,7 @@ def test_obj_with_mtl_texture_and_a_missing_texture_named(tmp_path):
     (tmp_path / "box.obj").write_text(text)
     for name, content in files.items():
         (tmp_path / name).write_bytes(content)
-    named = assets.mesh_files(tmp_path / "box.obj")
+    named = [str(tmp_path / "box.obj"), *asset_files.asset_inputs(str(tmp_path / "box.obj"))]
     assert named[:2] == [str(tmp_path / "box.obj"), str(tmp_path / "box.mtl")] and len(named) == 3
     obj = user_objects.load_user_object(tmp_path / "box.obj", DEFAULTS)
     # The texture, not the MTL's Kd (trimesh writes 0.4), is the base colour.
@@ -131,7 +132,7 @@ def test_obj_with_mtl_texture_and_a_missing_texture_named(tmp_path):
     )
     texture_file = next(p for p in named if p.endswith(".png"))
     (tmp_path / texture_file).unlink()
-    with pytest.raises(ValueError, match=r"box\.obj names files that do not exist: .*\.png"):
+    with pytest.raises(ValueError, match=r"box\.mtl names .*\.png .*, which does not exist"):
         user_objects.load_user_object(tmp_path / "box.obj", DEFAULTS)
 
 
@@ -247,9 +248,9 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     assert found == [
         f"ndr.user_objects entry 'gone': file {tmp_path / 'gone.glb'} does not exist",
         f"ndr.user_objects entry 'text': {tmp_path / 'notes.txt'} is not a mesh file NDR reads "
-        f"({', '.join(assets.MESH_SUFFIXES)})",
-        f"ndr.user_objects entry 'obj': {tmp_path / 'a.obj'} names {tmp_path / 'a.mtl'}, which "
-        "does not exist",
+        f"({', '.join(MESH_SUFFIXES)})",
+        f"ndr.user_objects entry 'obj': {tmp_path / 'a.obj'} names a.mtl ({tmp_path / 'a.mtl'}), "
+        "which does not exist",
     ]
 
 

@@ -7,11 +7,15 @@ Modules: ``objects``, ``environments``, ``render``, ``shading`` (one scene and i
 buffers), ``data`` and ``pool`` (a split's samples), ``buffers`` (their file format and
 loading), ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
 ``relight``, ``furnace``, ``summary`` (statistics, timings, targets), ``user_objects``
-and ``assets`` (your meshes and the files they name), ``figures`` and ``jobs`` (one
+(your meshes; :mod:`neurender.asset_files` finds the files they name), ``figures`` and ``jobs`` (one
 function per rule of ``workflow/rules/ndr.smk``).
 """
 
+from neurender.asset_files import TRIMESH_SUFFIXES, VTK_SUFFIXES
 from neurender.ndr.variants import VARIANTS
+
+#: Mesh files ``ndr.user_objects`` may name: trimesh's formats and PyVista's VTK ones.
+MESH_SUFFIXES = TRIMESH_SUFFIXES + VTK_SUFFIXES
 
 #: The parts of a dataset; a split is a part of the ``complex`` data (``train``), of the
 #: ``diffuse`` data (``diffuse_train``) or the ``sunlit`` test set (real-world-like maps).

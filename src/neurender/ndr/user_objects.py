@@ -45,9 +45,9 @@ import pandas as pd
 import torch
 import trimesh
 
-from neurender import rng
+from neurender import asset_files, rng
 from neurender.geometry import vertex_normals
-from neurender.ndr import assets, data, environments, render
+from neurender.ndr import MESH_SUFFIXES, data, environments, render
 from neurender.ndr.buffers import light_features, stack_samples
 from neurender.ndr.evaluate import predict, score
 from neurender.ndr.model import SHADING_INPUT, NDRModel, compose, shading_input
@@ -212,7 +212,7 @@ def _vtk_mesh(path: Path) -> trimesh.Trimesh:
 def _pieces(path: Path) -> list[trimesh.Trimesh]:
     """The triangle meshes of a file as written (trimesh's merging and clean-up off, so a
     NaN vertex is refused, not dropped), with their scene transforms applied."""
-    if path.suffix.lower() in assets.VTK_SUFFIXES:
+    if path.suffix.lower() in asset_files.VTK_SUFFIXES:
         return [_vtk_mesh(path)]
     try:
         loaded = trimesh.load(path, process=False)  # as written: no silent clean-up
@@ -236,16 +236,16 @@ def load_user_object(path: str | Path, defaults: dict) -> UserObject:
             file it names, no triangles, non-finite vertices or a degenerate extent.
     """
     path = Path(path)
-    if path.suffix.lower() not in assets.MESH_SUFFIXES:
+    if path.suffix.lower() not in MESH_SUFFIXES:
         raise ValueError(
             f"mesh {path}: unsupported suffix {path.suffix!r}; expected one of "
-            f"{', '.join(assets.MESH_SUFFIXES)}"
+            f"{', '.join(MESH_SUFFIXES)}"
         )
     if not path.is_file():
         raise FileNotFoundError(f"mesh {path} does not exist")
-    missing = assets.missing_files(path)
+    missing = asset_files.missing(path)
     if missing:
-        raise ValueError(f"mesh {path} names files that do not exist: {', '.join(missing)}")
+        raise ValueError(f"mesh {path}: {'; '.join(missing)}")
     pieces = [p for p in _pieces(path) if len(p.faces)]
     if not pieces:
         raise ValueError(f"mesh {path} has no triangles")

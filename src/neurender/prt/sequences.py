@@ -40,20 +40,9 @@ def build_sequences(name: str, gim: dict[str, np.ndarray], cfg: dict) -> dict[st
     seq_pos, seq_params, test_pos, test_params, extrapolated = build(
         gim, rest, seq_len, n_test, rng, test_rng, cfg
     )
-    order = np.random.default_rng(stable_seed(cfg["seed"], name, "split")).permutation(seq_len)
-    val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
-    return {
-        "train_positions": seq_pos[train_idx].astype(np.float32),
-        "val_positions": seq_pos[val_idx].astype(np.float32),
-        "test_positions": test_pos.astype(np.float32),
-        "train_params": seq_params[train_idx].astype(np.float32),
-        "val_params": seq_params[val_idx].astype(np.float32),
-        "test_params": test_params.astype(np.float32),
-        "train_frame": train_idx,
-        "val_frame": val_idx,
-        "test_extrapolated": extrapolated,
-        "kind": np.array(kind),
-    }
+    return _split_arrays(
+        name, cfg["seed"], n_val, seq_pos, seq_params, test_pos, test_params, extrapolated, kind
+    )
 
 
 def user_sequences(
@@ -85,20 +74,40 @@ def user_sequences(
         )
     share = cfg["frames"]["val"] / (cfg["frames"]["train"] + cfg["frames"]["val"])
     n_val = min(seq_len - 1, max(1, round(share * seq_len)))
-    order = np.random.default_rng(stable_seed(cfg["seed"], name, "split")).permutation(seq_len)
-    val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
     seq_params, test_params = _pca_params(frames, test)
+    extrapolated_frames = np.full(len(test), extrapolated)
+    return _split_arrays(
+        name,
+        cfg["seed"],
+        n_val,
+        frames,
+        seq_params,
+        test,
+        test_params,
+        extrapolated_frames,
+        "user_sequence",
+    )
+
+
+def _split_arrays(
+    name, seed, n_val, seq_pos, seq_params, test_pos, test_params, extrapolated, kind
+) -> dict[str, np.ndarray]:
+    """``sequence.npz``'s arrays: the sequence's frames split at random (seeded by the
+    dataset's name) into ``n_val`` validation frames and the training frames, each split
+    in time order; positions and parameters as float32."""
+    order = np.random.default_rng(stable_seed(seed, name, "split")).permutation(len(seq_pos))
+    val_idx, train_idx = np.sort(order[:n_val]), np.sort(order[n_val:])
     return {
-        "train_positions": frames[train_idx].astype(np.float32),
-        "val_positions": frames[val_idx].astype(np.float32),
-        "test_positions": test.astype(np.float32),
+        "train_positions": seq_pos[train_idx].astype(np.float32),
+        "val_positions": seq_pos[val_idx].astype(np.float32),
+        "test_positions": test_pos.astype(np.float32),
         "train_params": seq_params[train_idx].astype(np.float32),
         "val_params": seq_params[val_idx].astype(np.float32),
         "test_params": test_params.astype(np.float32),
         "train_frame": train_idx,
         "val_frame": val_idx,
-        "test_extrapolated": np.full(len(test), extrapolated),
-        "kind": np.array("user_sequence"),
+        "test_extrapolated": extrapolated,
+        "kind": np.array(kind),
     }
 
 

@@ -39,10 +39,10 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from neurender import gltf, io
+from neurender import asset_files, gltf, io
 from neurender.display import srgb
 from neurender.geometry import vertex_normals
-from neurender.simplify import asset_files, user_mesh
+from neurender.simplify import user_mesh
 from neurender.simplify.bake import dilate, rasterise_uvs, tangent_frames
 from neurender.simplify.mesh_ops import LowPolyMesh
 

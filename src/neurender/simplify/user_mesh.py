@@ -40,10 +40,9 @@ import numpy as np
 import trimesh
 from PIL import Image
 
-from neurender import mitsuba_setup
+from neurender import asset_files, mitsuba_setup
 from neurender.display import linear_from_srgb
 from neurender.geometry import vertex_normals
-from neurender.simplify import asset_files
 
 PLAIN_ALBEDO = 0.5
 #: A bounding box counts as degenerate when its second-largest extent is below this
@@ -308,10 +307,10 @@ def load(path: str | Path) -> UserMesh:
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in asset_files.SUFFIXES:
+    if suffix not in asset_files.TRIMESH_SUFFIXES:
         raise AssetFileError(
             f"{path}: unknown mesh format {suffix or '(no suffix)'}; expected one of "
-            f"{', '.join(asset_files.SUFFIXES)}"
+            f"{', '.join(asset_files.TRIMESH_SUFFIXES)}"
         )
     if not path.is_file():
         raise AssetFileError(f"{path}: no such file")

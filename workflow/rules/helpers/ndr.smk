@@ -7,7 +7,7 @@ from neurender.ndr import SPLITS as NDR_SPLITS
 from neurender.ndr import SUNLIT_SPLIT as NDR_SUNLIT_SPLIT
 from neurender.ndr import VARIANTS as NDR_VARIANT_TABLE
 from neurender.ndr import split_kind as ndr_split_kind
-from neurender.ndr.assets import mesh_files as ndr_mesh_files
+from neurender.asset_files import asset_inputs
 
 NDR_VARIANTS = tuple(dict.fromkeys(["ndr", *config["ndr_model"]["variants"]]))
 #: ndr keys every sample reads; a kind's or the test part's own keys.
@@ -73,7 +73,7 @@ def ndr_user_object_files(wildcards):
     a path under results/ is the workflow's output) and the user's maps."""
     files = {
         f"object_{name}": (
-            [path] if path.startswith("results/") else ndr_mesh_files(path)
+            [path] if path.startswith("results/") else [path, *asset_inputs(path)]
         )
         for name, path in config["ndr"]["user_objects"].items()
     }

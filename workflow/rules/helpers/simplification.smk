@@ -2,7 +2,7 @@
 
 from neurender.simplify import CASE_FILES as SIMPLIFY_CASE_FILES
 from neurender.simplify import EXPORT_FILES as SIMPLIFY_EXPORT_FILES
-from neurender.simplify.asset_files import asset_inputs
+from neurender.asset_files import asset_inputs
 
 #: name -> entry (path, ratio, triangles, views); each runs as a use case of its own.
 SIMPLIFY_USER_ASSETS = config["simplify"]["user_assets"]

@@ -1,4 +1,6 @@
-"""The files behind a user's asset path, found without loading the mesh (read at DAG time).
+"""The files behind a user's mesh path, found without loading the mesh (read at DAG time):
+the mesh files NDR's objects and the simplification's assets read, and the material files
+and textures they name.
 
 An OBJ names its material files (``mtllib``), and a material file names its textures
 (``map_Kd`` for the base colour, ``norm`` for a tangent-space normal map); a ``.gltf``
@@ -16,9 +18,11 @@ import struct
 from pathlib import Path
 from urllib.parse import unquote
 
-#: File kinds a user asset may have (what trimesh loads with a material or vertex colours).
-SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".off", ".stl")
-#: MTL statements whose file this stage reads: the base colour and the normal map.
+#: Mesh files trimesh loads with a material or vertex colours.
+TRIMESH_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".off", ".stl")
+#: Mesh files PyVista loads (VTK legacy and XML poly data, with point colours).
+VTK_SUFFIXES = (".vtk", ".vtp")
+#: MTL statements whose files the stages read: the base colour and the normal map.
 MTL_MAPS = ("map_kd", "norm")
 
 _MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", re.MULTILINE)
@@ -106,7 +110,8 @@ def references(path: str | Path) -> list[tuple[Path, Path]]:
 
 
 def missing(path: str | Path) -> list[str]:
-    """One sentence per file the asset names that does not exist (empty if none)."""
+    """One sentence per file the mesh at ``path`` names that does not exist (empty if
+    none), e.g. ``a.obj names a.mtl (/data/a.mtl), which does not exist``."""
     return [
         f"{source} names {target.name} ({target}), which does not exist"
         for source, target in references(path)
