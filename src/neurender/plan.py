@@ -69,9 +69,9 @@ def dag_jobs(configfiles: Sequence[str], workdir: Path = ROOT) -> list[PlannedJo
         "--forceall",
         "--cores",
         "2",
-        "--configfile",
-        *map(str, configfiles),
     ]
+    if configfiles:  # after the target: --configfile takes every argument that follows
+        command += ["--configfile", *map(str, configfiles)]
     out = subprocess.run(command, cwd=workdir, capture_output=True, text=True, check=False)
     if out.returncode:
         raise RuntimeError(f"snakemake -n failed:\n{out.stderr[-3000:]}")
@@ -233,7 +233,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.calibrate:
-        runs = [(Path(r), c.split(",")) for r, c in (item.split(":", 1) for item in args.calibrate)]
+        pairs = (item.split(":", 1) for item in args.calibrate)
+        runs = [(Path(r), [f for f in c.split(",") if f]) for r, c in pairs]
         table = calibrate(runs)
         out = Path(costs.__file__).with_name("costs.csv")
         table.round(6).to_csv(out, index=False)
@@ -241,6 +242,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     cfg = load_config(args.configfile)
     table = estimates(cfg, dag_jobs(args.configfile))
+    if cfg["gpus"] and not gpu_seconds_per_unit():
+        print(
+            "no GPU rates measured yet (benchmarks/results/gpu_check_*.csv, from "
+            "benchmarks/gpu_check.sh): GPU jobs are counted at their CPU times"
+        )
     print(summary(table).round(3).to_string())
     if args.limits:
         over = beyond_limits(table, *args.limits)
