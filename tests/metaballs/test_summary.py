@@ -19,12 +19,15 @@ def test_targets_state_each_check_as_met_or_missed():
             ("isolated spheres", "normal_error_mean_deg", 20.0),
             ("inflated spheres", "iou_depth", 0.85),
             ("inflated spheres", "normal_error_mean_deg", 10.0),
+            ("good", "epochs", 2.0),  # a budget row: no score, no target
+            ("bad", "epochs", 2.0),
         ]
     )
     timing = _metrics([("good", "speedup_at_145_balls", 50.0), ("good", "ms_per_frame", 1.0)])
     table = summary.targets(metrics, timing, width=128)
     assert list(table.columns) == list(TARGET_COLUMNS)
     assert set(table.subject) == {"good", "bad"}  # baselines are not checked
+    assert not table.check.str.contains("epochs").any()
     assert table[table.subject == "good"].met.all()
     assert not table[table.subject == "bad"].met.any()
     speed_row = table[table.check.str.contains("faster")]

@@ -17,6 +17,8 @@ PAPER_SCALE_WIDTH = 512
 #: The baseline every network must beat, and the suffix of every no-learning baseline.
 BASELINE = "isolated spheres"
 BASELINE_SUFFIX = " spheres"
+#: Rows of the metrics table that state a network's training budget, not a score.
+BUDGET_METRICS = {"epochs"}
 #: Metric prefixes where lower is better (the rest: higher is better).
 LOWER_IS_BETTER = ("l1_", "depth_error", "normal_error")
 
@@ -50,7 +52,8 @@ def accuracy_targets(metrics: pd.DataFrame, width: int) -> list[Target]:
             Target(model, f"silhouette IoU (depth) >= {iou_min:g}", iou, iou >= iou_min),
             Target(model, f"mean normal error <= {angle_max:g} deg", angle, angle <= angle_max),
         ]
-        for metric in sorted(set(metrics["metric"])):
+        scores = set(metrics["metric"]) - BUDGET_METRICS
+        for metric in sorted(scores):
             ours = lookup(metrics, model=model, metric=metric)
             base = lookup(metrics, model=BASELINE, metric=metric)
             better = ours < base if metric.startswith(LOWER_IS_BETTER) else ours > base
