@@ -29,6 +29,10 @@ _MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", re.MULTILINE)
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
+class AssetFileError(ValueError):
+    """A user's asset that cannot be read; the message names the file and what was found."""
+
+
 def _file_name(text: str) -> str:
     """The file name at the end of an MTL map statement, after any ``-option value...``
     (``map_Kd -s 1 1 1 wood.png``); Windows separators become ``/``."""
@@ -122,3 +126,25 @@ def missing(path: str | Path) -> list[str]:
 def asset_inputs(path: str) -> list[str]:
     """The files a job reading the asset depends on besides ``path`` itself."""
     return sorted({str(target) for _, target in references(path)})
+
+
+def check(path: str | Path, suffixes: tuple[str, ...]) -> Path:
+    """``path`` once it has one of ``suffixes``, exists, and every file it names exists.
+
+    Raises:
+        AssetFileError: naming the file: an unknown suffix, no such file, or the files it
+            names that are missing.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in suffixes:
+        raise AssetFileError(
+            f"{path}: unknown mesh format {suffix or '(no suffix)'}; expected one of "
+            f"{', '.join(suffixes)}"
+        )
+    if not path.is_file():
+        raise AssetFileError(f"{path}: no such file")
+    absent = missing(path)
+    if absent:
+        raise AssetFileError(f"{path}: " + "; ".join(absent))
+    return path

@@ -62,27 +62,33 @@ def png_bytes(values: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def glb(primitives: list[Primitive], name: str, generator: str = "neurender") -> bytes:
-    """The GLB bytes of one mesh made of ``primitives``; indices are 16-bit where a
-    primitive has fewer than 65536 vertices, else 32-bit."""
-    chunks: list[bytes] = []
-    views: list[dict] = []
-    accessors: list[dict] = []
+class _Buffer:
+    """The binary chunk of a GLB and the JSON arrays that point into it."""
 
-    def view(data: bytes, target: int | None = None) -> int:
-        offset = sum(len(c) for c in chunks)
-        entry = {"buffer": 0, "byteOffset": offset, "byteLength": len(data)}
+    def __init__(self) -> None:
+        self.chunks: list[bytes] = []
+        self.views: list[dict] = []
+        self.accessors: list[dict] = []
+        self.images: list[dict] = []
+        self.textures: list[dict] = []
+        self.samplers: list[dict] = []
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        """A buffer view of ``data`` (padded to 4 bytes); its index."""
+        entry = {"buffer": 0, "byteOffset": len(self.binary()), "byteLength": len(data)}
         if target is not None:
             entry["target"] = target
-        chunks.append(data + b"\0" * (-len(data) % 4))
-        views.append(entry)
-        return len(views) - 1
+        self.chunks.append(data + b"\0" * (-len(data) % 4))
+        self.views.append(entry)
+        return len(self.views) - 1
 
-    def accessor(array: np.ndarray, kind: str, component: int, target: int, bounds=False) -> int:
+    def accessor(self, array: np.ndarray, kind: str, component: int, target: int, bounds=False):
+        """An accessor of ``array`` (little-endian ``component``s of glTF type ``kind``,
+        with its ``min``/``max`` where ``bounds``); its index."""
         dtype = {FLOAT: np.float32, UNSIGNED_SHORT: np.uint16, UNSIGNED_INT: np.uint32}[component]
         data = np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<"))
         entry = {
-            "bufferView": view(data.tobytes(), target),
+            "bufferView": self.view(data.tobytes(), target),
             "componentType": component,
             "count": len(data) if data.ndim > 1 else data.size,
             "type": kind,
@@ -90,73 +96,94 @@ def glb(primitives: list[Primitive], name: str, generator: str = "neurender") ->
         if bounds:
             entry["min"] = data.min(0).tolist()
             entry["max"] = data.max(0).tolist()
-        accessors.append(entry)
-        return len(accessors) - 1
+        self.accessors.append(entry)
+        return len(self.accessors) - 1
 
-    images: list[dict] = []
-    textures: list[dict] = []
-    samplers: list[dict] = []
-
-    def texture(png: bytes, wrap: int) -> dict:
+    def texture(self, png: bytes, wrap: int) -> dict:
+        """A texture of PNG bytes with a linear, mipmapped sampler; its texture info."""
         sampler = {
             "magFilter": LINEAR,
             "minFilter": LINEAR_MIPMAP_LINEAR,
             "wrapS": wrap,
             "wrapT": wrap,
         }
-        if sampler not in samplers:
-            samplers.append(sampler)
-        images.append({"bufferView": view(png), "mimeType": "image/png"})
-        textures.append({"sampler": samplers.index(sampler), "source": len(images) - 1})
-        return {"index": len(textures) - 1}
+        if sampler not in self.samplers:
+            self.samplers.append(sampler)
+        self.images.append({"bufferView": self.view(png), "mimeType": "image/png"})
+        self.textures.append(
+            {"sampler": self.samplers.index(sampler), "source": len(self.images) - 1}
+        )
+        return {"index": len(self.textures) - 1}
 
+    def binary(self) -> bytes:
+        return b"".join(self.chunks)
+
+
+def _check(p: Primitive, where: str) -> None:
+    """Refuse a primitive whose attributes do not match its positions or its textures."""
+    for key in ("normals", "tangents", "uvs", "colours"):
+        value = getattr(p, key)
+        if value is not None and len(value) != len(p.positions):
+            raise ValueError(f"{where}: {len(value)} {key} for {len(p.positions)} positions")
+    if (p.base_colour_png or p.normal_png) and p.uvs is None:
+        raise ValueError(f"{where}: textures need texture coordinates")
+    if p.normal_png and p.tangents is None:
+        raise ValueError(f"{where}: a normal texture needs tangents")
+
+
+def _primitive(p: Primitive, k: int, buffer: _Buffer) -> dict:
+    """The glTF primitive of ``p`` (material ``k``), its arrays written to ``buffer``."""
+    attributes = {
+        "POSITION": buffer.accessor(p.positions, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True)
+    }
+    for semantic, key, kind in (
+        ("NORMAL", "normals", "VEC3"),
+        ("TANGENT", "tangents", "VEC4"),
+        ("TEXCOORD_0", "uvs", "VEC2"),
+        ("COLOR_0", "colours", "VEC3"),
+    ):
+        if getattr(p, key) is not None:
+            attributes[semantic] = buffer.accessor(getattr(p, key), kind, FLOAT, ARRAY_BUFFER)
+    short = len(p.positions) < 65536
+    indices = buffer.accessor(
+        np.asarray(p.faces).ravel(),
+        "SCALAR",
+        UNSIGNED_SHORT if short else UNSIGNED_INT,
+        ELEMENT_ARRAY_BUFFER,
+    )
+    return {"attributes": attributes, "indices": indices, "material": k, "mode": 4}
+
+
+def _material(p: Primitive, name: str, buffer: _Buffer) -> dict:
+    """The Lambertian glTF material of ``p`` (see the module docstring), its textures
+    written to ``buffer``."""
+    pbr: dict = {
+        "baseColorFactor": [float(c) for c in p.base_colour] + [1.0],
+        "metallicFactor": 0.0,
+        "roughnessFactor": 1.0,
+    }
+    if p.base_colour_png:
+        pbr["baseColorTexture"] = buffer.texture(p.base_colour_png, p.wrap)
+    material: dict = {
+        "name": name,
+        "pbrMetallicRoughness": pbr,
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
+    }
+    if p.normal_png:
+        material["normalTexture"] = buffer.texture(p.normal_png, p.wrap)
+    return material
+
+
+def glb(primitives: list[Primitive], name: str, generator: str = "neurender") -> bytes:
+    """The GLB bytes of one mesh made of ``primitives``; indices are 16-bit where a
+    primitive has fewer than 65536 vertices, else 32-bit."""
+    buffer = _Buffer()
     gl_primitives, materials = [], []
     for k, p in enumerate(primitives):
-        for key in ("normals", "tangents", "uvs", "colours"):
-            value = getattr(p, key)
-            if value is not None and len(value) != len(p.positions):
-                raise ValueError(
-                    f"glTF primitive {k} of {name}: {len(value)} {key} for "
-                    f"{len(p.positions)} positions"
-                )
-        if (p.base_colour_png or p.normal_png) and p.uvs is None:
-            raise ValueError(f"glTF primitive {k} of {name}: textures need texture coordinates")
-        if p.normal_png and p.tangents is None:
-            raise ValueError(f"glTF primitive {k} of {name}: a normal texture needs tangents")
-        attributes = {"POSITION": accessor(p.positions, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True)}
-        for semantic, key, kind in (
-            ("NORMAL", "normals", "VEC3"),
-            ("TANGENT", "tangents", "VEC4"),
-            ("TEXCOORD_0", "uvs", "VEC2"),
-            ("COLOR_0", "colours", "VEC3"),
-        ):
-            if getattr(p, key) is not None:
-                attributes[semantic] = accessor(getattr(p, key), kind, FLOAT, ARRAY_BUFFER)
-        short = len(p.positions) < 65536
-        indices = accessor(
-            np.asarray(p.faces).ravel(),
-            "SCALAR",
-            UNSIGNED_SHORT if short else UNSIGNED_INT,
-            ELEMENT_ARRAY_BUFFER,
-        )
-        pbr: dict = {
-            "baseColorFactor": [float(c) for c in p.base_colour] + [1.0],
-            "metallicFactor": 0.0,
-            "roughnessFactor": 1.0,
-        }
-        if p.base_colour_png:
-            pbr["baseColorTexture"] = texture(p.base_colour_png, p.wrap)
-        material: dict = {
-            "name": f"{name}_{k}" if len(primitives) > 1 else name,
-            "pbrMetallicRoughness": pbr,
-            "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
-        }
-        if p.normal_png:
-            material["normalTexture"] = texture(p.normal_png, p.wrap)
-        materials.append(material)
-        gl_primitives.append(
-            {"attributes": attributes, "indices": indices, "material": k, "mode": 4}
-        )
+        _check(p, f"glTF primitive {k} of {name}")
+        gl_primitives.append(_primitive(p, k, buffer))
+        materials.append(_material(p, f"{name}_{k}" if len(primitives) > 1 else name, buffer))
+    binary = buffer.binary()
     tree: dict = {
         "asset": {"version": "2.0", "generator": generator},
         "extensionsUsed": ["KHR_materials_specular"],
@@ -165,15 +192,14 @@ def glb(primitives: list[Primitive], name: str, generator: str = "neurender") ->
         "nodes": [{"mesh": 0, "name": name}],
         "meshes": [{"name": name, "primitives": gl_primitives}],
         "materials": materials,
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{"byteLength": sum(len(c) for c in chunks)}],
+        "accessors": buffer.accessors,
+        "bufferViews": buffer.views,
+        "buffers": [{"byteLength": len(binary)}],
     }
-    if textures:
-        tree |= {"samplers": samplers, "textures": textures, "images": images}
+    if buffer.textures:
+        tree |= {"samplers": buffer.samplers, "textures": buffer.textures, "images": buffer.images}
     text = json.dumps(tree, separators=(",", ":")).encode()
     text += b" " * (-len(text) % 4)
-    binary = b"".join(chunks)
     total = 12 + 8 + len(text) + 8 + len(binary)
     return b"".join(
         [

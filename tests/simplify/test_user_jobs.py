@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 import trimesh
 
+from neurender.asset_files import AssetFileError
 from neurender.simplify import CASE_FILES, EXPORT_FILES, jobs
-from neurender.simplify.user_mesh import AssetFileError
 
 PREPARED = {
     "train_images": "reference_train.exr",

@@ -7,9 +7,9 @@ import pyvista as pv
 import trimesh
 from PIL import Image
 
+from neurender.asset_files import AssetFileError
 from neurender.display import linear_from_srgb
 from neurender.simplify import user_mesh
-from neurender.simplify.user_mesh import AssetFileError
 
 
 def random_texture(size=(16, 12), seed=0) -> np.ndarray:

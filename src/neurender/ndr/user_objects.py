@@ -232,20 +232,10 @@ def load_user_object(path: str | Path, defaults: dict) -> UserObject:
             what the file does not say (``ndr.user_object_defaults``).
 
     Raises:
-        ValueError: naming the file: an unsupported suffix, a missing material or texture
-            file it names, no triangles, non-finite vertices or a degenerate extent.
+        ValueError: naming the file: an unknown suffix, no such file, a missing material or
+            texture file it names, no triangles, non-finite vertices or a degenerate extent.
     """
-    path = Path(path)
-    if path.suffix.lower() not in MESH_SUFFIXES:
-        raise ValueError(
-            f"mesh {path}: unsupported suffix {path.suffix!r}; expected one of "
-            f"{', '.join(MESH_SUFFIXES)}"
-        )
-    if not path.is_file():
-        raise FileNotFoundError(f"mesh {path} does not exist")
-    missing = asset_files.missing(path)
-    if missing:
-        raise ValueError(f"mesh {path}: {'; '.join(missing)}")
+    path = asset_files.check(path, MESH_SUFFIXES)
     pieces = [p for p in _pieces(path) if len(p.faces)]
     if not pieces:
         raise ValueError(f"mesh {path} has no triangles")

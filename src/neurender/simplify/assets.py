@@ -29,6 +29,7 @@ import torch
 import trimesh
 
 from neurender import mitsuba_setup
+from neurender.asset_files import AssetFileError
 from neurender.metaball import Scene, field, surface_attributes
 from neurender.rng import stable_seed
 from neurender.shapes import head_mesh
@@ -197,7 +198,7 @@ def triangle_budget(entry: dict, detailed: int, path: str) -> int:
     budget = entry["triangles"] or round(entry["ratio"] * detailed)
     how = f"triangles = {budget}" if entry["triangles"] else f"ratio = {entry['ratio']}"
     if not 4 <= budget < detailed:
-        raise user_mesh.AssetFileError(
+        raise AssetFileError(
             f"{path}: {how} gives a budget of {budget} triangles; expected at least 4 and "
             f"fewer than the asset's {detailed}"
         )

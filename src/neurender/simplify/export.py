@@ -40,6 +40,7 @@ import numpy as np
 from PIL import Image
 
 from neurender import asset_files, gltf, io
+from neurender.asset_files import AssetFileError
 from neurender.display import srgb
 from neurender.geometry import vertex_normals
 from neurender.simplify import user_mesh
@@ -262,7 +263,7 @@ def reimport(path: str | Path, to_asset: np.ndarray) -> tuple[LowPolyMesh, np.nd
     """
     mesh = user_mesh.load(path)
     if len(mesh.parts) != 1 or mesh.parts[0].kind != "texture":
-        raise user_mesh.AssetFileError(
+        raise AssetFileError(
             f"{path}: expected one textured mesh, found {len(mesh.parts)} part(s) of kinds "
             f"{[p.kind for p in mesh.parts]}"
         )
@@ -273,7 +274,7 @@ def reimport(path: str | Path, to_asset: np.ndarray) -> tuple[LowPolyMesh, np.nd
         if maps:
             normal_values = user_mesh.image_values(Image.open(maps[0]))
     if normal_values is None:
-        raise user_mesh.AssetFileError(f"{path}: no normal map (normalTexture or MTL norm)")
+        raise AssetFileError(f"{path}: no normal map (normalTexture or MTL norm)")
     inverse = np.linalg.inv(to_asset)
     positions = part.vertices @ inverse[:3, :3].T + inverse[:3, 3]
     welded = mesh.vertices @ inverse[:3, :3].T + inverse[:3, 3]

@@ -41,6 +41,7 @@ import trimesh
 from PIL import Image
 
 from neurender import asset_files, mitsuba_setup
+from neurender.asset_files import AssetFileError
 from neurender.display import linear_from_srgb
 from neurender.geometry import vertex_normals
 
@@ -48,10 +49,6 @@ PLAIN_ALBEDO = 0.5
 #: A bounding box counts as degenerate when its second-largest extent is below this
 #: fraction of its largest (a point or a line segment: no surface to render).
 FLAT_TOLERANCE = 1e-6
-
-
-class AssetFileError(ValueError):
-    """A user asset that cannot be simplified; the message names the file and what was found."""
 
 
 def image_values(image: Image.Image) -> np.ndarray:
@@ -305,18 +302,8 @@ def load(path: str | Path) -> UserMesh:
             file or a missing file it names (MTL, texture, buffer), an unreadable file, no
             faces, non-finite vertices, a degenerate bounding box.
     """
-    path = Path(path)
+    path = asset_files.check(path, asset_files.TRIMESH_SUFFIXES)
     suffix = path.suffix.lower()
-    if suffix not in asset_files.TRIMESH_SUFFIXES:
-        raise AssetFileError(
-            f"{path}: unknown mesh format {suffix or '(no suffix)'}; expected one of "
-            f"{', '.join(asset_files.TRIMESH_SUFFIXES)}"
-        )
-    if not path.is_file():
-        raise AssetFileError(f"{path}: no such file")
-    missing = asset_files.missing(path)
-    if missing:
-        raise AssetFileError(f"{path}: " + "; ".join(missing))
     geometries = _read(path)
     meshes = [g for g in geometries if isinstance(g, trimesh.Trimesh) and len(g.faces)]
     if not meshes:
