@@ -21,6 +21,8 @@ from typing import Any
 
 import pandas as pd
 
+from neurender import io
+
 #: Scheduler limits are estimates times this factor (and at least the floors below).
 SAFETY = 3.0
 MIN_RUNTIME_MIN = 5
@@ -124,7 +126,9 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         diffuse = variant in ("ndr_diffuse", "real_shading")
         count = (ndr["diffuse_samples"] if diffuse else ndr["samples"])["train"]
         pixels = count * w * w
-        return nm["epochs"] * pixels * unet_work(nm["widths"]) / 1e6, pixels * 30 * 4 / 1e6
+        # Splits over the in-memory limit are read from disk sample by sample.
+        data_mb = min(pixels * 30 * 4, io.IN_MEMORY_LIMIT_BYTES) / 1e6
+        return nm["epochs"] * pixels * unet_work(nm["widths"]) / 1e6, data_mb
     if rule in ("ndr_evaluate", "ndr_relight"):
         tests = ndr["samples"]["test"] + ndr["diffuse_samples"]["test"]
         return tests * w * w * len(nm["variants"]) / 1e6, tests * w * w * 40 / 1e6
@@ -146,9 +150,8 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         gan = 3.7 if variant == "pix2pix" else 1.0
         flips = 4 if mm["flips"] else 1
         steps = mm["epochs"] * flips * mb["examples"]["train"]
-        return steps * w * w * mm["ngf"] ** 2 * gan / 1e9, mb["examples"][
-            "train"
-        ] * w * w * 12 / 1e6
+        data_mb = min(mb["examples"]["train"] * w * w * 12, io.IN_MEMORY_LIMIT_BYTES) / 1e6
+        return steps * w * w * mm["ngf"] ** 2 * gan / 1e9, data_mb
     if rule == "metaballs_deploy":  # per network (metaballs.VARIANTS: 3): an export, 2 x 23 frames
         return 3 * (1 + w * w * mm["ngf"] ** 2 / 1e6), w * w / 1e3
     if rule == "metaballs_viewer":  # the demo by every network (3) and the ray marcher

@@ -23,6 +23,11 @@ import OpenEXR
 import pandas as pd
 import png
 
+#: A training split whose arrays would take more memory than this (bytes) stays on disk
+#: and is read one sample at a time (the papers' scale: NDR's 60 000 samples of 256^2
+#: buffers are 470 GB as float32); smaller splits are read once into memory.
+IN_MEMORY_LIMIT_BYTES = 8 * 2**30
+
 PathLike = str | os.PathLike
 
 # The process umask, read once at import (reading it means setting it, which would race

@@ -40,3 +40,15 @@ def test_dataset_items_and_mirrorings(tmp_path, write_split):
     torch.testing.assert_close(
         x1[model.CIRCLE_CHANNELS + depth], x0[model.CIRCLE_CHANNELS + depth].flip(-1)
     )
+
+
+def test_a_split_over_the_memory_limit_is_read_from_disk_with_the_same_items(tmp_path, write_split):
+    write_split("train", 2)
+    args = (tmp_path / "train", tmp_path / "train_manifest.csv", tmp_path / "train_balls.csv")
+    in_memory = dataset.ABDataset(*args, "sphere_residual", flips=True)
+    on_disk = dataset.ABDataset(*args, "sphere_residual", flips=True, max_bytes=1)
+    assert in_memory.images is not None and on_disk.images is None
+    assert len(on_disk) == len(in_memory) == 8
+    for k in range(len(in_memory)):
+        for a, b in zip(on_disk[k], in_memory[k], strict=True):
+            torch.testing.assert_close(a, b, atol=0, rtol=0)

@@ -2,6 +2,7 @@ import math
 
 import numpy as np
 import pytest
+import torch
 
 from neurender import lights
 from neurender.ndr import data, furnace, render, split_kind
@@ -93,6 +94,14 @@ def test_samples_are_deterministic_and_load_as_a_dataset(mitsuba, tmp_path):
     # Eroding only removes pixels.
     assert (item["mask"] <= dataset.buffers["mask"][1]).all()
     assert item["mask"].sum() < (dataset[1]["N"].abs().sum(0) > 0).sum()
+    # A split over the memory limit stays on disk and reads the same items.
+    on_disk = NDRDataset(
+        tmp_path / "test", tmp_path / "m.csv", tmp_path / "l.csv", erosion=1, max_bytes=1
+    )
+    assert on_disk.buffers is None and len(on_disk) == len(dataset)
+    for i in range(len(dataset)):
+        for key, value in dataset[i].items():
+            torch.testing.assert_close(on_disk[i][key], value, atol=0, rtol=0)
 
 
 def test_user_maps_light_samples_and_the_test_split_gets_unseen_ones(mitsuba, tmp_path):

@@ -36,7 +36,8 @@ def flip(
 
 
 class ABDataset(Dataset):
-    """AB examples of a split, kept in memory as uint8 ``(N, W, 3W, 4)``.
+    """AB examples of a split, kept in memory as uint8 ``(N, W, 3W, 4)``; with
+    ``max_bytes``, a split larger than that stays on disk and each item is read from its PNG.
 
     With ``flips`` the dataset is four times as long: item ``k`` is example ``k // 4``
     mirrored by the bits of ``k % 4`` (horizontal, vertical), so an epoch sees every example
@@ -50,15 +51,15 @@ class ABDataset(Dataset):
         balls: str | Path,
         variant: str,
         flips: bool = False,
+        max_bytes: int | None = None,
     ):
         table = io.read_csv(manifest, ["example", "file"]).sort_values("example")
         self.examples = table["example"].astype(int).tolist()
-        self.images = np.stack([io.read_png(Path(folder) / f) for f in table["file"]])
-        if self.images.dtype != np.uint8 or self.images.shape[-1] != 4:
-            raise ValueError(
-                f"{folder}: AB examples must be 8-bit RGBA, "
-                f"got {self.images.dtype} {self.images.shape}"
-            )
+        self.files = [Path(folder) / f for f in table["file"]]
+        first = self.read(0)
+        self.images: np.ndarray | None = None
+        if max_bytes is None or len(self.files) * first.nbytes <= max_bytes:
+            self.images = np.stack([self.read(i) for i in range(len(self.files))])
         self.variant = variant
         self.spheres = uses_spheres(variant)
         self.scenes = read_scenes(balls) if self.spheres else {}
@@ -67,12 +68,21 @@ class ABDataset(Dataset):
             raise ValueError(f"{balls}: no balls for examples {missing[:5]} of {manifest}")
         self.copies = 4 if flips else 1
 
+    def read(self, i: int) -> np.ndarray:
+        """Example ``i``'s AB image ``(W, 3W, 4)`` uint8, read from its PNG."""
+        image = io.read_png(self.files[i])
+        if image.dtype != np.uint8 or image.ndim != 3 or image.shape[-1] != 4:
+            raise ValueError(
+                f"{self.files[i]}: AB examples must be 8-bit RGBA, got {image.dtype} {image.shape}"
+            )
+        return image
+
     def __len__(self) -> int:
-        return len(self.images) * self.copies
+        return len(self.files) * self.copies
 
     def __getitem__(self, k: int) -> tuple[torch.Tensor, torch.Tensor]:
         i, mirroring = divmod(k, self.copies)
-        parts = ab.unpack(self.images[i])
+        parts = ab.unpack(self.read(i) if self.images is None else self.images[i])
         width = parts["inputs"].shape[-1]
         x = network_inputs(
             self.scenes.get(self.examples[i]), width, self.variant, circles=parts["inputs"]

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import torch
 from torch import nn
 
-from neurender import train
+from neurender import io, train
 from neurender.metaballs.dataset import ABDataset
 from neurender.metaballs.model import build_discriminator, build_generator
 
@@ -53,8 +53,14 @@ def discriminator_loss(module: nn.Module, batch, fake: torch.Tensor):
 
 
 def split_dataset(files: Mapping[str, str], split: str, variant: str, flips: bool) -> ABDataset:
-    """The :class:`ABDataset` of ``files``' ``{split}_dir``, ``_manifest`` and ``_balls``."""
-    return ABDataset(*(files[f"{split}_{kind}"] for kind in SPLIT_FILES), variant, flips=flips)
+    """The :class:`ABDataset` of ``files``' ``{split}_dir``, ``_manifest`` and ``_balls``
+    (on disk when larger than :data:`neurender.io.IN_MEMORY_LIMIT_BYTES`)."""
+    return ABDataset(
+        *(files[f"{split}_{kind}"] for kind in SPLIT_FILES),
+        variant,
+        flips=flips,
+        max_bytes=io.IN_MEMORY_LIMIT_BYTES,
+    )
 
 
 def train_generator(

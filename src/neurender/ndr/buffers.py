@@ -111,13 +111,14 @@ def stack_samples(samples: list[dict[str, np.ndarray]], erosion: int) -> dict[st
 
 
 class NDRDataset(Dataset):
-    """A split in memory. Items are dicts of float32 tensors:
+    """A split of samples. Items are dicts of float32 tensors:
 
     ``N`` (3, H, W) in [-1, 1], ``R`` (1), ``D`` (1), ``A_D``/``A_S`` (3) in [0, 1],
     ``S_D``/``S_S``/``I_D``/``I_S`` (3) linear HDR, ``mask`` (1) eroded by ``erosion`` px,
     ``light`` (75) the SH features (:func:`light_features`), and ``I_D_noisy``,
     ``I_S_noisy`` on test splits. ``buffers`` holds the whole split ``(N, C, H, W)``, or
-    its first ``count`` samples.
+    its first ``count`` samples; with ``max_bytes``, a split larger than that stays on disk
+    (``buffers`` is None) and each item is read from its file.
     """
 
     def __init__(
@@ -127,23 +128,41 @@ class NDRDataset(Dataset):
         lighting: str | Path,
         erosion: int,
         count: int | None = None,
+        max_bytes: int | None = None,
     ):
         frame = io.read_csv(manifest, ["sample", "file"]).sort_values("sample").head(count)
         self.light = light_features(read_lighting(lighting, frame["sample"]))
-        self.buffers = stack_samples(
-            [io.read_exr(Path(folder) / name) for name in frame["file"]], erosion
-        )
+        self.files = [Path(folder) / name for name in frame["file"]]
+        self.erosion = erosion
+        self.buffers: dict[str, torch.Tensor] | None = None
+        if max_bytes is None or len(self.files) * self.sample_bytes() <= max_bytes:
+            self.buffers = stack_samples([io.read_exr(f) for f in self.files], erosion)
 
     @classmethod
     def from_files(
-        cls, files: dict[str, str], erosion: int, count: int | None = None
+        cls,
+        files: dict[str, str],
+        erosion: int,
+        count: int | None = None,
+        max_bytes: int | None = None,
     ) -> NDRDataset:
         """A split (its first ``count`` samples) from its ``dir``, ``manifest`` and
         ``lighting`` files."""
-        return cls(files["dir"], files["manifest"], files["lighting"], erosion, count)
+        return cls(files["dir"], files["manifest"], files["lighting"], erosion, count, max_bytes)
+
+    def read(self, i: int) -> dict[str, torch.Tensor]:
+        """Sample ``i``'s buffers ``(C, H, W)``, read from its file."""
+        buffers = stack_samples([io.read_exr(self.files[i])], self.erosion)
+        return {g: v[0] for g, v in buffers.items()}
+
+    def sample_bytes(self) -> int:
+        """The memory one sample's buffers take (the first sample's)."""
+        return sum(v.numel() * v.element_size() for v in self.read(0).values())
 
     def __len__(self) -> int:
         return len(self.light)
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        if self.buffers is None:
+            return {"light": self.light[i], **self.read(i)}
         return {"light": self.light[i], **{g: v[i] for g, v in self.buffers.items()}}

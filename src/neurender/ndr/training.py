@@ -13,7 +13,7 @@ from typing import Any
 
 import torch
 
-from neurender import train
+from neurender import io, train
 from neurender.display import reinhard
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.model import (
@@ -86,8 +86,9 @@ def train_variant(
         raise KeyError(f"NDR variant {name!r}: expected one of {sorted(VARIANTS)}")
     variant = VARIANTS[name]
     torch.manual_seed(cfg["seed"])
-    train_set = NDRDataset.from_files(train_files, cfg["mask_erosion"])
-    val_set = NDRDataset.from_files(val_files, cfg["mask_erosion"])
+    erosion, limit = cfg["mask_erosion"], io.IN_MEMORY_LIMIT_BYTES
+    train_set = NDRDataset.from_files(train_files, erosion, max_bytes=limit)
+    val_set = NDRDataset.from_files(val_files, erosion, max_bytes=limit)
     arch = architecture(variant, cfg)
     model = NDRModel(variant, **arch)
     config = train.TrainConfig.from_stage(cfg, threads, epochs=cfg["epochs"])
