@@ -71,9 +71,11 @@ def unet_work(widths: list[int]) -> float:
     return sum(w * w / 4**level for level, w in enumerate(widths)) / 1e3
 
 
-def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tuple[float, float]:
-    """``(time units, memory units)`` of one job of ``rule`` under the full config ``cfg``
-    (0 where a rule's cost does not grow with the config)."""
+Units = tuple[float, float]
+
+
+def _prt_work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units | None:
+    """:func:`work` of DeepPRT's rules (None for another rule)."""
     prt, pm = cfg["prt"], cfg["prt_model"]
     n = prt["resolution"]
     frames = prt["frames"]
@@ -111,8 +113,14 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     if rule == "prt_momoprt":
         pixels = (frames["train"] + frames["val"]) * n * n
         return pixels * prt["n_bands"] ** 2 / 1e6, pixels * prt["n_bands"] ** 2 * 3 / 1e6
+    return None
+
+
+def _ndr_work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units | None:
+    """:func:`work` of NDR's rules (None for another rule)."""
     ndr, nm = cfg["ndr"], cfg["ndr_model"]
     w = ndr["width"]
+    split = wildcards.get("split", "train")
     if rule == "ndr_data":
         kind, _, part = split.rpartition("_")
         if kind == "sunlit":
@@ -140,8 +148,16 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     if rule == "ndr_deploy":  # per network: an export, and 2 x 23 timed frames
         networks = len({"ndr", *nm["variants"]})
         return networks * (1 + w * w * unet_work(nm["widths"]) / 1e3), w * w / 1e3
+    return None
+
+
+def _metaballs_work(
+    rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]
+) -> Units | None:
+    """:func:`work` of the metaballs's rules (None for another rule)."""
     mb, mm = cfg["metaballs"], cfg["metaballs_model"]
     w = mb["width"]
+    split = wildcards.get("split", "train")
     if rule == "metaballs_examples":
         count = mb["examples"][split]
         return count * w * w * sum(mb["balls"]) / 2 / 1e6, w * w / 1e3
@@ -158,6 +174,11 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
         return mm["demo_frames"] * w * w * 4 / 1e6, mm["demo_frames"] * w * w * 4 / 1e3
     if rule in ("metaballs_evaluate", "metaballs_demo"):
         return (mb["examples"]["test"] + mm["demo_frames"]) * w * w / 1e6, w * w / 1e3
+    return None
+
+
+def _simplify_work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units | None:
+    """:func:`work` of the simplification's rules (None for another rule)."""
     s = cfg["simplify"]
     pixels = s["resolution"] ** 2
     if rule == "simplify_prepare":
@@ -172,6 +193,16 @@ def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> tup
     if rule == "simplify_evaluate":
         cases = max(len(s["cases"]), 1)
         return cases * 3 * s["test_views"] * s["eval_spp"] * pixels / 1e6, pixels / 1e3
+    return None
+
+
+def work(rule: str, cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """``(time units, memory units)`` of one job of ``rule`` under the full config ``cfg``
+    (0 where a rule's cost does not grow with the config)."""
+    for stage_work in (_prt_work, _ndr_work, _metaballs_work, _simplify_work):
+        units = stage_work(rule, cfg, wildcards)
+        if units is not None:
+            return units
     return 0.0, 0.0
 
 

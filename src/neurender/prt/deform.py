@@ -124,12 +124,7 @@ def simulate_cloth(
     x0 = x.copy()
     v = np.zeros_like(x)
     idx = np.arange(m * m).reshape(m, m)
-    pairs = []
-    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1), (0, 2), (2, 0)):
-        a = idx[max(0, -di) : m - max(0, di), max(0, -dj) : m - max(0, dj)]
-        b = idx[max(0, di) : m + min(0, di) or None, max(0, dj) : m + min(0, dj) or None]
-        pairs.append(np.stack([a.ravel(), b.ravel()], 1))
-    pairs = np.concatenate(pairs)
+    pairs = _constraint_pairs(m)
     rest_len = np.linalg.norm(x0[pairs[:, 0]] - x0[pairs[:, 1]], axis=1)
     pinned = np.array([idx[-1, 0], idx[-1, -1]])  # the two corners of the far edge
     centre = np.array([rng.uniform(-0.25, 0.25), 0.0, rng.uniform(-0.2, 0.2)])
@@ -156,17 +151,7 @@ def simulate_cloth(
             v = 0.995 * v + dt * force
             p = x + dt * v
             for _ in range(iterations):
-                d = p[pairs[:, 1]] - p[pairs[:, 0]]
-                length = np.linalg.norm(d, axis=1, keepdims=True)
-                corr = 0.5 * (1.0 - rest_len[:, None] / np.maximum(length, 1e-12)) * d
-                delta = np.stack(
-                    [
-                        np.bincount(ends, np.concatenate([corr[:, c], -corr[:, c]]), m * m)
-                        for c in range(3)
-                    ],
-                    1,
-                )
-                p += 1.5 * delta / counts  # over-relaxed Jacobi average
+                p += 1.5 * _distance_corrections(p, pairs, rest_len, ends) / counts
                 p = _push_out_of_sphere(p, centre, radius * 1.02)
                 p[pinned] = x0[pinned]
             v = (p - x) / dt
@@ -180,6 +165,32 @@ def simulate_cloth(
                 n, n, 3
             )
     return out
+
+
+def _constraint_pairs(m: int) -> np.ndarray:
+    """Particle pairs ``(P, 2)`` of an ``m x m`` grid held at their rest distance: stretch
+    (grid edges), shear (diagonals) and bending (distance two)."""
+    idx = np.arange(m * m).reshape(m, m)
+    pairs = []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1), (0, 2), (2, 0)):
+        a = idx[max(0, -di) : m - max(0, di), max(0, -dj) : m - max(0, dj)]
+        b = idx[max(0, di) : m + min(0, di) or None, max(0, dj) : m + min(0, dj) or None]
+        pairs.append(np.stack([a.ravel(), b.ravel()], 1))
+    return np.concatenate(pairs)
+
+
+def _distance_corrections(
+    p: np.ndarray, pairs: np.ndarray, rest_len: np.ndarray, ends: np.ndarray
+) -> np.ndarray:
+    """The summed moves ``(N, 3)`` that restore every pair's rest length, half to each end
+    (divided by each particle's pair count, a Jacobi step)."""
+    d = p[pairs[:, 1]] - p[pairs[:, 0]]
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    corr = 0.5 * (1.0 - rest_len[:, None] / np.maximum(length, 1e-12)) * d
+    return np.stack(
+        [np.bincount(ends, np.concatenate([corr[:, c], -corr[:, c]]), len(p)) for c in range(3)],
+        1,
+    )
 
 
 def _push_out_of_sphere(p: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:

@@ -274,18 +274,11 @@ def cut_flags(faces: np.ndarray, cuts: list[list[int]]) -> np.ndarray:
     return np.array([[(int(a), int(b)) in on_cut for a, b in tri] for tri in edges], dtype=bool)
 
 
-def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
-    """Weld, check, orient and cut a mesh into a disk (see the module docstring).
-
-    Args:
-        vertices: ``(V, 3)`` positions.
-        faces: ``(F, 3)`` triangles.
-        name: the mesh's file or object name, for error messages.
-    """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64)
-    if len(faces) == 0:
-        raise ValueError(f"mesh {name}: no triangles found")
+def _weld_and_orient(
+    vertices: np.ndarray, faces: np.ndarray, name: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The welded, consistently oriented triangles ``(F', 3)``, the input faces they keep,
+    which of them were flipped, and how many vertices were welded."""
     welded, kept, n_welded = weld(vertices, faces)
     if len(kept) == 0:
         raise ValueError(f"mesh {name}: every triangle has zero size")
@@ -301,6 +294,58 @@ def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
         except ValueError:
             raise welded_error from None
         kept, n_welded = np.arange(len(faces)), 0
+    return oriented, kept, flipped, n_welded
+
+
+def _cut(
+    vertices: np.ndarray, oriented: np.ndarray, loops: int, genus: int, name: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Cut a surface that is not yet a disk along seams (libigl's ``cut_to_disk`` with
+    boundaries, shortest loops for handles, one path on a closed sphere).
+
+    Returns:
+        the cut mesh's vertices and faces, each cut vertex's source vertex, the cut
+        vertices where seams and boundaries branch (anchors of the map) and the seam's
+        edges ``(S, 2)`` in source vertices.
+    """
+    if loops:
+        cuts = igl.cut_to_disk(oriented)
+    elif genus:
+        cuts = shortest_loops(vertices, oriented)
+    else:
+        cuts = [genus0_cut(vertices, oriented)]
+    flags = cut_flags(oriented, cuts)
+    cut_vertices, cut_faces, source = igl.cut_mesh(vertices, oriented, flags)
+    boundary = {
+        tuple(sorted(e))
+        for loop in igl.boundary_loop_all(oriented)
+        for e in zip(loop, np.roll(loop, -1), strict=True)
+    }
+    seam = {tuple(sorted(e)) for path in cuts for e in zip(path[:-1], path[1:], strict=True)}
+    seam -= boundary
+    graph = np.array(sorted(seam | boundary), dtype=np.int64).reshape(-1, 2)
+    valence = np.bincount(graph.ravel(), minlength=len(vertices))
+    node = (valence > 0) & (valence != 2)
+    anchors = node[source] & np.isin(np.arange(len(source)), igl.boundary_loop(cut_faces))
+    if topology(cut_faces) != (1, 0):
+        raise RuntimeError(f"mesh {name}: cutting to a disk failed {topology(cut_faces)}")
+    seam_edges = np.array(sorted(seam), dtype=np.int64).reshape(-1, 2)
+    return cut_vertices, cut_faces, source, anchors, seam_edges
+
+
+def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
+    """Weld, check, orient and cut a mesh into a disk (see the module docstring).
+
+    Args:
+        vertices: ``(V, 3)`` positions.
+        faces: ``(F, 3)`` triangles.
+        name: the mesh's file or object name, for error messages.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
+        raise ValueError(f"mesh {name}: no triangles found")
+    oriented, kept, flipped, n_welded = _weld_and_orient(vertices, faces, name)
     corners = np.repeat(np.eye(3)[None], len(kept), axis=0)
     corners[flipped] = corners[flipped][:, [0, 2, 1]]
     loops, genus = topology(oriented)
@@ -317,31 +362,12 @@ def to_disk(vertices: np.ndarray, faces: np.ndarray, name: str) -> DiskMesh:
     if loops == 1 and genus == 0:
         cut_vertices, cut_faces, source = vertices, oriented, np.arange(len(vertices))
     else:
-        if loops:
-            cuts = igl.cut_to_disk(oriented)
-        elif genus:
-            cuts = shortest_loops(vertices, oriented)
-        else:
-            cuts = [genus0_cut(vertices, oriented)]
-        flags = cut_flags(oriented, cuts)
-        cut_vertices, cut_faces, source = igl.cut_mesh(vertices, oriented, flags)
-        boundary = {
-            tuple(sorted(e))
-            for loop in igl.boundary_loop_all(oriented)
-            for e in zip(loop, np.roll(loop, -1), strict=True)
-        }
-        seam = {tuple(sorted(e)) for path in cuts for e in zip(path[:-1], path[1:], strict=True)}
-        seam -= boundary
-        graph = np.array(sorted(seam | boundary), dtype=np.int64).reshape(-1, 2)
-        valence = np.bincount(graph.ravel(), minlength=len(vertices))
-        node = (valence > 0) & (valence != 2)
-        anchors = node[source] & np.isin(np.arange(len(source)), igl.boundary_loop(cut_faces))
-        seam_edges = np.array(sorted(seam), dtype=np.int64).reshape(-1, 2)
+        cut_vertices, cut_faces, source, anchors, seam_edges = _cut(
+            vertices, oriented, loops, genus, name
+        )
         length = np.linalg.norm(vertices[seam_edges[:, 0]] - vertices[seam_edges[:, 1]], axis=1)
         changes["seam_edges"] = len(seam_edges)
         changes["seam_length"] = float(length.sum() / bbox_diagonal(vertices[np.unique(faces)]))
-        if topology(cut_faces) != (1, 0):
-            raise RuntimeError(f"mesh {name}: cutting to a disk failed {topology(cut_faces)}")
     # Unreferenced vertices would make the map's linear systems singular.
     used = np.unique(cut_faces)
     if len(used) < len(cut_vertices):

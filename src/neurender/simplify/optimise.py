@@ -139,7 +139,27 @@ class LatentMesh:
         )
 
 
-def optimise(
+@dataclasses.dataclass
+class _Run:
+    """What the steps of one optimisation share: the Mitsuba scene and its parameters, the
+    latent mesh, both optimisers, the Laplacian of the start mesh, the reference images,
+    the order the views are drawn in and the Laplacian weight of eq. 6 (set at step 0)."""
+
+    scene: object
+    params: object
+    latent: LatentMesh
+    tex_opt: object
+    pos_opt: object
+    delta0: object
+    targets: list
+    order: np.ndarray
+    normal_lo: object
+    decay: float
+    lam: float | None = None
+    lam_min: float | None = None
+
+
+def _start(
     mi: ModuleType,
     dr: ModuleType,
     low: LowPolyMesh,
@@ -148,15 +168,8 @@ def optimise(
     references: np.ndarray,
     views: list[View],
     cfg: OptimiseConfig,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, pd.DataFrame]:
-    """Optimise ``low`` against reference images ``(N, W, W, >=3)`` (linear RGB) of ``views``.
-
-    Returns:
-        welded positions ``(V, 3)``, normal map ``(T, T, 3)``, albedo map ``(T, T, 3)``
-        (None unless optimised) and a tidy loss table (``step, metric, value``).
-    """
-    if len(references) != len(views):
-        raise ValueError(f"{len(references)} reference images for {len(views)} views")
+) -> _Run:
+    """The scene of ``low`` with its textures, and the optimisers over them."""
     shape = atlas_shape(mi, low, material(mi, albedo, normal_map))
     scene = mi.load_dict(
         scene_dict(
@@ -188,49 +201,97 @@ def optimise(
         .astype(np.float32)
         .copy()
     )
-    decay = laplacian_decay(cfg.steps)
-    lam = lam_min = None
+    return _Run(
+        scene,
+        params,
+        latent,
+        tex_opt,
+        pos_opt,
+        delta0,
+        targets,
+        order,
+        normal_lo,
+        laplacian_decay(cfg.steps),
+    )
+
+
+def _batch_gradients(
+    mi: ModuleType, dr: ModuleType, run: _Run, step: int, views: list[View], cfg: OptimiseConfig
+) -> tuple[list[float], float]:
+    """Render and back-propagate every view of ``step``'s batch (the Laplacian term with
+    the first); the image L1 of each view and the Laplacian term's value."""
+    image_losses = []
+    laplacian_value = math.nan
+    for item in range(cfg.batch):
+        draw = step * cfg.batch + item
+        # Mitsuba differentiates a render against the scene as it is at backward time,
+        # so each view of a batch is rendered and back-propagated on its own; the
+        # gradients add up in the optimisers' variables.
+        run.params.update(run.tex_opt)
+        p = run.latent.points(run.pos_opt["positions"])
+        run.latent.write(run.params, p)
+        set_view(mi, run.params, views[run.order[draw]])
+        run.params.update()
+        image = mi.render(run.scene, run.params, seed=cfg.seed + draw, spp=cfg.spp)
+        loss_image = dr.mean(
+            dr.abs(tonemap(dr, image) - tonemap(dr, run.targets[run.order[draw]])), axis=None
+        )
+        image_losses.append(scalar(loss_image))
+        loss = loss_image / cfg.batch
+        if item == 0:
+            loss_lap = dr.mean(dr.squared_norm(run.latent.laplacian(p) - run.delta0), axis=None)
+            if run.lam is None:
+                # delta - delta0 is 0 at the start, so the weight is set against the
+                # absolute Laplacian of the initial mesh (lambda_0 = 0.25 L_image / L_delta).
+                absolute = scalar(dr.mean(dr.squared_norm(run.delta0), axis=None))
+                run.lam = cfg.laplacian_scale * image_losses[0] / max(absolute, 1e-12)
+                run.lam_min = cfg.laplacian_min_fraction * run.lam
+            run.lam = (run.lam - run.lam_min) * 10 ** (-run.decay * step) + run.lam_min
+            laplacian_value = scalar(loss_lap)
+            loss = loss + run.lam * loss_lap
+        dr.backward(loss)
+    return image_losses, laplacian_value
+
+
+def _apply(dr: ModuleType, run: _Run, cfg: OptimiseConfig) -> None:
+    """One Adam step of what is optimised, textures clipped to their valid range."""
+    run.tex_opt.step()
+    if cfg.optimise_positions:
+        run.pos_opt.step()
+    run.tex_opt[NORMAL_KEY] = dr.clip(run.tex_opt[NORMAL_KEY], run.normal_lo, 1.0)
+    if cfg.optimise_albedo:
+        run.tex_opt[ALBEDO_KEY] = dr.clip(run.tex_opt[ALBEDO_KEY], 0.0, 1.0)
+
+
+def optimise(
+    mi: ModuleType,
+    dr: ModuleType,
+    low: LowPolyMesh,
+    normal_map: np.ndarray,
+    albedo: float | np.ndarray,
+    references: np.ndarray,
+    views: list[View],
+    cfg: OptimiseConfig,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, pd.DataFrame]:
+    """Optimise ``low`` against reference images ``(N, W, W, >=3)`` (linear RGB) of ``views``.
+
+    Returns:
+        welded positions ``(V, 3)``, normal map ``(T, T, 3)``, albedo map ``(T, T, 3)``
+        (None unless optimised) and a tidy loss table (``step, metric, value``).
+    """
+    if len(references) != len(views):
+        raise ValueError(f"{len(references)} reference images for {len(views)} views")
+    run = _start(mi, dr, low, normal_map, albedo, references, views, cfg)
     rows = []
     for step in tqdm(range(cfg.steps), desc="optimise", mininterval=10):
         started = time.perf_counter()
         lr_scale = cfg.lr_final_fraction ** (step / max(cfg.steps - 1, 1))
-        tex_opt.set_learning_rate(cfg.lr_textures * lr_scale)
-        pos_opt.set_learning_rate(cfg.lr_positions * lr_scale if cfg.optimise_positions else 0.0)
-        image_losses = []
-        for item in range(cfg.batch):
-            draw = step * cfg.batch + item
-            # Mitsuba differentiates a render against the scene as it is at backward time,
-            # so each view of a batch is rendered and back-propagated on its own; the
-            # gradients add up in the optimisers' variables.
-            params.update(tex_opt)
-            p = latent.points(pos_opt["positions"])
-            latent.write(params, p)
-            set_view(mi, params, views[order[draw]])
-            params.update()
-            image = mi.render(scene, params, seed=cfg.seed + draw, spp=cfg.spp)
-            loss_image = dr.mean(
-                dr.abs(tonemap(dr, image) - tonemap(dr, targets[order[draw]])), axis=None
-            )
-            image_losses.append(scalar(loss_image))
-            loss = loss_image / cfg.batch
-            if item == 0:
-                loss_lap = dr.mean(dr.squared_norm(latent.laplacian(p) - delta0), axis=None)
-                if lam is None:
-                    # delta - delta0 is 0 at the start, so the weight is set against the
-                    # absolute Laplacian of the initial mesh (lambda_0 = 0.25 L_image / L_delta).
-                    absolute = scalar(dr.mean(dr.squared_norm(delta0), axis=None))
-                    lam = cfg.laplacian_scale * image_losses[0] / max(absolute, 1e-12)
-                    lam_min = cfg.laplacian_min_fraction * lam
-                lam = (lam - lam_min) * 10 ** (-decay * step) + lam_min
-                laplacian_value = scalar(loss_lap)
-                loss = loss + lam * loss_lap
-            dr.backward(loss)
-        tex_opt.step()
-        if cfg.optimise_positions:
-            pos_opt.step()
-        tex_opt[NORMAL_KEY] = dr.clip(tex_opt[NORMAL_KEY], normal_lo, 1.0)
-        if cfg.optimise_albedo:
-            tex_opt[ALBEDO_KEY] = dr.clip(tex_opt[ALBEDO_KEY], 0.0, 1.0)
+        run.tex_opt.set_learning_rate(cfg.lr_textures * lr_scale)
+        run.pos_opt.set_learning_rate(
+            cfg.lr_positions * lr_scale if cfg.optimise_positions else 0.0
+        )
+        image_losses, laplacian_value = _batch_gradients(mi, dr, run, step, views, cfg)
+        _apply(dr, run, cfg)
         image_l1 = float(np.mean(image_losses))
         if not math.isfinite(image_l1):
             raise FloatingPointError(f"image loss is not finite at step {step}")
@@ -238,11 +299,11 @@ def optimise(
         for metric, value in (
             ("image_l1", image_l1),
             ("laplacian", laplacian_value),
-            ("lambda", lam),
+            ("lambda", run.lam),
             ("seconds", elapsed),
         ):
             rows.append({"step": step, "metric": metric, "value": value})
-    positions = np.array(pos_opt["positions"]).reshape(-1, 3).astype(np.float64)
-    normal_out = np.array(tex_opt[NORMAL_KEY])
-    albedo_out = np.array(tex_opt[ALBEDO_KEY]) if cfg.optimise_albedo else None
+    positions = np.array(run.pos_opt["positions"]).reshape(-1, 3).astype(np.float64)
+    normal_out = np.array(run.tex_opt[NORMAL_KEY])
+    albedo_out = np.array(run.tex_opt[ALBEDO_KEY]) if cfg.optimise_albedo else None
     return positions, normal_out, albedo_out, pd.DataFrame(rows)
