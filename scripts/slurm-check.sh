@@ -15,9 +15,10 @@ LOCAL=${1:-results}
 shift || true
 TARGETS=("$@")
 if [ ${#TARGETS[@]} -eq 0 ]; then
-  # The metaballs chain: examples -> three trainings -> evaluation (three dependency
-  # levels, eight jobs), with deterministic EXR and CSV outputs.
-  TARGETS=(results/metaballs/metrics.csv)
+  # The metaballs chain (examples -> three trainings -> evaluation: three dependency levels)
+  # and the simplification's Mitsuba chain (prepare -> optimise -> evaluate), both with
+  # deterministic EXR and CSV outputs.
+  TARGETS=(results/metaballs/metrics.csv results/simplification/metrics.csv)
 fi
 [ -d "$LOCAL" ] || { echo "slurm-check: no local results at $LOCAL" >&2; exit 2; }
 LOCAL=$(cd "$LOCAL" && pwd)

@@ -84,3 +84,27 @@ def test_export_refuses_a_batch_of_one_and_a_failed_check_leaves_nothing(tmp_pat
 def test_missing_onnx_file_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.onnx"):
         OnnxNetwork(tmp_path / "nope.onnx")
+
+
+class _Radiance(nn.Module):
+    """A network whose outputs are large, as linear HDR radiance is."""
+
+    def __init__(self, model: nn.Module, scale: float):
+        super().__init__()
+        self.model, self.scale = model, scale
+
+    def forward(self, x):
+        return self.model(x) * self.scale
+
+
+def test_the_export_check_scales_with_the_outputs_magnitude(tmp_path):
+    model = _Radiance(_trained_looking_unet(), 1e6)
+    x = torch.randn(2, 6, 16, 16)
+    with torch.inference_mode():
+        peak = float(model(x).abs().max())
+    # float32 rounding of outputs near 1e6 is far above an absolute 1e-3 ...
+    with pytest.raises(ValueError, match=r"differs from PyTorch .*rtol 0.0 x max\|y\|"):
+        export_onnx(model, x, tmp_path / "absolute.onnx", atol=1e-3)
+    # ... and within a relative 1e-4 of the largest output.
+    error = export_onnx(model, x, tmp_path / "relative.onnx", atol=0.0, rtol=1e-4)
+    assert 0 < error <= 1e-4 * peak

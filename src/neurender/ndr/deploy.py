@@ -66,7 +66,10 @@ def export_variant(
     ``max_abs_diff_vs_pytorch``, ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch``."""
     graph = NDRGraph(model.cpu())
     inputs = graph_inputs(model, batch)
-    error = export_onnx(graph, inputs, onnx_out, atol=1e-3, input_names=("buffers", "light"))
+    # I_R is linear HDR radiance (above 100 where a sun reflects): the check scales with it.
+    error = export_onnx(
+        graph, inputs, onnx_out, atol=1e-3, input_names=("buffers", "light"), rtol=1e-4
+    )
     ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in inputs), threads)
     return {
         "parameters": count_parameters(model),
