@@ -21,6 +21,23 @@ def test_nearer_circles_are_drawn_over_farther_ones():
     assert img[3][~ring].eq(1).all()
 
 
+def test_of_balls_at_equal_depth_the_first_is_drawn_and_every_draw_is_the_same():
+    # Two balls at one place, red first, then green: every pixel ties on depth.
+    twins = Scene(
+        torch.tensor([[0.1, -0.2, 8.0], [0.1, -0.2, 8.0]], dtype=torch.float64),
+        torch.tensor([1.5, 1.5], dtype=torch.float64),
+        torch.tensor([[1.0, 0, 0], [0, 1.0, 0]], dtype=torch.float64),
+    )
+    circles = inputs.draw_inputs(twins, 64)
+    spheres = inputs.draw_spheres(twins, 64)
+    ring, hit = circles[3] < 1, spheres.mask
+    assert ring.any() and hit.any()
+    assert (circles[0][ring] == 1).all() and (circles[1][ring] == 0).all()
+    assert (spheres.colour[0][hit] == 1).all() and (spheres.colour[1][hit] == 0).all()
+    for _ in range(5):
+        torch.testing.assert_close(inputs.draw_inputs(twins, 64), circles, atol=0, rtol=0)
+
+
 def _painted_circles(scene, width):
     """Reference: the thesis's billboards drawn one by one, far to near."""
     image = torch.zeros(4, width, width, dtype=torch.float64)

@@ -55,10 +55,16 @@ def _footprint_pairs(boxes: torch.Tensor, width: int) -> tuple[torch.Tensor, tor
 
 def _nearest(ball: torch.Tensor, pixel: torch.Tensor, key: torch.Tensor, width: int):
     """Depth test: per pixel the smallest ``key`` of its pairs (``inf`` where none) and a
-    boolean ``(P,)`` marking each pixel's winning pair."""
+    boolean ``(P,)`` marking each pixel's one winning pair: of pairs at equal ``key``, the
+    first (pairs come ball by ball, so the lowest ball; writing several winners to one
+    pixel would leave which one lands to the thread schedule)."""
     nearest = torch.full((width * width,), math.inf, dtype=key.dtype, device=key.device)
     nearest = nearest.scatter_reduce(0, pixel, key, "amin")
-    return nearest, torch.isfinite(key) & (key == nearest[pixel])
+    tied = torch.isfinite(key) & (key == nearest[pixel])
+    pair = torch.arange(len(key), device=key.device)
+    first = torch.full((width * width,), len(key), dtype=pair.dtype, device=key.device)
+    first = first.scatter_reduce(0, pixel[tied], pair[tied], "amin")
+    return nearest, tied & (first[pixel] == pair)
 
 
 def draw_inputs(scene: Scene, width: int) -> torch.Tensor:
