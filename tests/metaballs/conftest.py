@@ -37,3 +37,14 @@ def write_split(tmp_path):
         return params
 
     return write
+
+
+@pytest.fixture
+def split_files(tmp_path):
+    """The training job's inputs for the train and val splits :func:`write_split` writes:
+    ``{split}_dir``, ``{split}_manifest``, ``{split}_balls``."""
+    return {
+        f"{s}_{k}": str(tmp_path / (s if k == "dir" else f"{s}_{k}.csv"))
+        for s in ("train", "val")
+        for k in ("dir", "manifest", "balls")
+    }

@@ -13,14 +13,10 @@ def _train_params(variant: str) -> dict:
     return params | ({"ndf": 4, "gan_weight": 1.0} if gan else {"gan_weight": 0.0})
 
 
-def test_every_variant_trains_and_renders_g_buffers(tmp_path, write_split):
+def test_every_variant_trains_and_renders_g_buffers(tmp_path, write_split, split_files):
     write_split("train", 4)
     write_split("val", 2)
-    files = {
-        f"{s}_{k}": str(tmp_path / (s if k == "dir" else f"{s}_{k}.csv"))
-        for s in ("train", "val")
-        for k in ("dir", "manifest", "balls")
-    }
+    files = split_files
     scene = scenes.sample_scene(3, (1.0, 2.0), torch.Generator().manual_seed(0)).to(torch.float32)
     for variant in VARIANTS:
         outputs = {

@@ -49,14 +49,10 @@ def test_a_picture_of_the_wrong_width_is_refused():
         demo_view(_sequence(1, 1), ["a", "b"], W)
 
 
-def test_the_job_renders_every_variant_and_the_ray_marcher(tmp_path, write_split):
+def test_the_job_renders_every_variant_and_the_ray_marcher(tmp_path, write_split, split_files):
     write_split("train", 2)
     write_split("val", 1)
-    files = {
-        f"{s}_{k}": str(tmp_path / (s if k == "dir" else f"{s}_{k}.csv"))
-        for s in ("train", "val")
-        for k in ("dir", "manifest", "balls")
-    }
+    files = split_files
     checkpoints = []
     for variant in VARIANTS:
         params = {"seed": 1, "device": "cpu", "width": 32, "variant": variant, "ngf": 4}
