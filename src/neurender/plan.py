@@ -34,7 +34,7 @@ import yaml
 from neurender import costs
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The factor within which ``--check`` accepts a stage's estimate (README, "On a cluster").
+#: The factor within which ``--check`` accepts a stage's estimate (docs/cluster.md).
 CHECK_FACTOR = 3.0
 
 

@@ -105,7 +105,7 @@ def test_a_killed_training_job_resumes_and_ends_as_an_uninterrupted_run(work):
     resume = work / (TRAIN + ".resume")
     process = _snakemake(work, TRAIN, background=True)
     _kill_when(process, resume.exists)
-    _snakemake(work, "--unlock")  # Snakemake died holding its lock (README, after a kill)
+    _snakemake(work, "--unlock")  # Snakemake died holding its lock (docs/troubleshooting.md)
     assert not (work / TRAIN).exists()  # the checkpoint is written only at the end
     dry = _snakemake(work, TRAIN, "-n")
     assert "prt_train" in dry  # not taken as complete

@@ -1,4 +1,4 @@
-"""Files of the DeepPRT data stage (see README, "DeepPRT data").
+"""Files of the DeepPRT data stage (see docs/methods/prt.md, "Data stage").
 
 * ``probes/{probe}_sh.csv``: a probe's SH projection, tidy rows ``k, l, m, channel, value``
   (channels R, G, B; the probe itself is an RGB lat-long EXR, :mod:`neurender.lights`).
