@@ -47,7 +47,7 @@ def scheduler_resources(rule_name):
     def estimate(wildcards):
         return neurender.costs.estimate(rule_name, config, dict(wildcards))
 
-    gpus = config["gpus"] if rule_name in neurender.costs.GPU_RULES else 0
+    gpus = config["gpus"] if neurender.costs.uses_gpu(rule_name) else 0
     return {
         "mem_mb": lambda wildcards, attempt: estimate(wildcards).mem_limit_mb * attempt,
         "runtime": lambda wildcards, attempt: estimate(wildcards).runtime_min * attempt,

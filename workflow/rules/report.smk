@@ -1,20 +1,22 @@
 # The HTML report: every measured table and figure beside the papers' numbers.
+import neurender.methods
+
+
+def report_inputs(kind):
+    """Every registered method's report files of one ``kind`` (``tables``, ``figures``,
+    ``viewers``), methods in report order (:mod:`neurender.methods`)."""
+    return [
+        path
+        for method in neurender.methods.METHODS
+        for path in getattr(method.report_inputs(config), kind)
+    ]
 
 
 rule report:
     input:
-        tables=prt_report_tables()
-        + ndr_report_tables()
-        + metaballs_report_tables()
-        + simplify_report_tables(),
-        figures=prt_report_figures()
-        + ndr_report_figures()
-        + metaballs_report_figures()
-        + simplify_report_figures(),
-        viewers=prt_report_viewers()
-        + ndr_report_viewers()
-        + metaballs_report_viewers()
-        + simplify_report_viewers(),
+        tables=report_inputs("tables"),
+        figures=report_inputs("figures"),
+        viewers=report_inputs("viewers"),
     output:
         html="results/report.html",
     log:
