@@ -1,15 +1,4 @@
 # The HTML report: every measured table and figure beside the papers' numbers.
-import neurender.methods
-
-
-def report_inputs(kind):
-    """Every registered method's report files of one ``kind`` (``tables``, ``figures``,
-    ``viewers``), methods in report order (:mod:`neurender.methods`)."""
-    return [
-        path
-        for method in neurender.methods.METHODS
-        for path in getattr(method.report_inputs(config), kind)
-    ]
 
 
 rule report:
