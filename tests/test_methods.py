@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from neurender import config, costs, io, methods, plan
 from neurender.method import Method, ReportInputs, Rule, Units
@@ -75,6 +76,14 @@ def test_every_rule_of_the_workflow_is_registered_once():
     owned = [name for m in methods.METHODS for name in m.rules]
     owned += list(methods.WORKFLOW_RULES)
     assert len(owned) == len(set(owned))
+
+
+def test_every_config_section_of_the_schema_belongs_to_one_method_or_to_all():
+    schema = yaml.safe_load((ROOT / "workflow/schemas/config.schema.yaml").read_text())
+    sections = {k for k, v in schema["properties"].items() if v.get("type") == "object"}
+    claimed = [s for m in methods.METHODS for s in m.config_sections]
+    assert len(claimed) == len(set(claimed))
+    assert sections - set(claimed) == {"report"}  # the report's title: every method's
 
 
 def test_every_row_of_the_shared_tables_belongs_to_a_registered_method():
