@@ -1,7 +1,7 @@
 import numpy as np
 import pandas as pd
 
-from neurender import io
+from neurender import io, methods
 from neurender.deployment import deployment_row, deployment_table
 from neurender.report import build as report
 
@@ -33,7 +33,7 @@ def test_report_shows_measurements_and_marks_unrun_sections(tmp_path):
 def test_paper_numbers_are_tidy():
     p = report.paper_numbers()
     assert {"method", "source", "metric", "value"} <= set(p.columns)
-    assert set(p.method) <= {s.key for s in report.SECTIONS}
+    assert set(p.method) <= {m.key for m in methods.METHODS}
 
 
 def test_a_section_with_data_but_no_metrics_says_so(tmp_path):

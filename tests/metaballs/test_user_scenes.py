@@ -8,8 +8,7 @@ import pandas as pd
 import pytest
 import torch
 
-from neurender import config as rules
-from neurender.metaballs import raymarch
+from neurender.metaballs import method, raymarch
 from neurender.metaballs.model import network_inputs
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.metaballs.user_scenes import outside_training, score_user_scenes, to_scenes
@@ -82,14 +81,14 @@ def test_the_config_check_refuses_a_bad_scenes_file_before_any_job(tmp_path):
     cfg = {
         "metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32, "user_scenes": str(path)}
     }
-    (problem,) = list(rules._metaballs_problems(cfg))
+    (problem,) = list(method.problems(cfg))
     assert (
         problem.startswith(f"metaballs.user_scenes = '{path}'") and "radius must be > 0" in problem
     )
     missing = {"metaballs": {**cfg["metaballs"], "user_scenes": str(tmp_path / "none.csv")}}
-    assert "none.csv" in next(iter(rules._metaballs_problems(missing)))
+    assert "none.csv" in next(iter(method.problems(missing)))
     made = {"metaballs": {**cfg["metaballs"], "user_scenes": "results/examples/balls.csv"}}
-    assert list(rules._metaballs_problems(made)) == []  # the workflow makes it; checked then
+    assert list(method.problems(made)) == []  # the workflow makes it; checked then
 
 
 def test_balls_outside_the_training_range_are_reported_per_scene(tmp_path):

@@ -1,11 +1,13 @@
-# Config validation and the helpers every rules file uses; each method's own helpers
-# live in its rules file.
+# Config validation and the helpers every rules file uses; each method's own helpers are in
+# helpers/<method>.smk, what the rest of the workflow knows of it in its record
+# (src/neurender/<package>/method.py, listed in neurender.methods).
 import glob
 from pathlib import Path
 
 from snakemake.utils import validate
 
 import neurender.config
+import neurender.methods
 
 # Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here,
 # then the rules between keys (neurender/config.py), naming the keys and values.
@@ -36,6 +38,16 @@ def user_files(path):
     return [path]
 
 
+def report_inputs(kind):
+    """Every registered method's report files of one ``kind`` (``tables``, ``figures``,
+    ``viewers``), methods in report order (:mod:`neurender.methods`)."""
+    return [
+        path
+        for method in neurender.methods.METHODS
+        for path in getattr(method.report_inputs(config), kind)
+    ]
+
+
 def scheduler_resources(rule_name):
     """A job's ``resources``: ``mem_mb`` and ``runtime`` (minutes) from the cost model
     (:mod:`neurender.costs`, estimate times a safety factor, doubled on each retry) and
@@ -47,7 +59,7 @@ def scheduler_resources(rule_name):
     def estimate(wildcards):
         return neurender.costs.estimate(rule_name, config, dict(wildcards))
 
-    gpus = config["gpus"] if rule_name in neurender.costs.GPU_RULES else 0
+    gpus = config["gpus"] if neurender.costs.uses_gpu(rule_name) else 0
     return {
         "mem_mb": lambda wildcards, attempt: estimate(wildcards).mem_limit_mb * attempt,
         "runtime": lambda wildcards, attempt: estimate(wildcards).runtime_min * attempt,

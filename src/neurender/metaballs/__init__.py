@@ -23,3 +23,7 @@ GAN_VARIANTS = ("pix2pix",)
 
 #: The thesis's network and ours: the demo animates and times both.
 DEMO_VARIANTS = ("pix2pix", "sphere_residual")
+
+#: Copies of each training example with ``metaballs_model.flips``: as it is and mirrored in
+#: x, in y and in both (:class:`neurender.metaballs.dataset.ABDataset`).
+MIRRORINGS = 4

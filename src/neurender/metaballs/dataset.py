@@ -14,7 +14,7 @@ import torch
 from torch.utils.data import Dataset
 
 from neurender import io
-from neurender.metaballs import ab, gbuffers
+from neurender.metaballs import MIRRORINGS, ab, gbuffers
 from neurender.metaballs.data import read_scenes
 from neurender.metaballs.model import CIRCLE_CHANNELS, network_inputs, uses_spheres
 
@@ -66,7 +66,7 @@ class ABDataset(Dataset):
         missing = [e for e in self.examples if self.spheres and e not in self.scenes]
         if missing:
             raise ValueError(f"{balls}: no balls for examples {missing[:5]} of {manifest}")
-        self.copies = 4 if flips else 1
+        self.copies = MIRRORINGS if flips else 1
 
     def read(self, i: int) -> np.ndarray:
         """Example ``i``'s AB image ``(W, 3W, 4)`` uint8, read from its PNG."""

@@ -8,15 +8,16 @@ method's headline rows (``headlines.csv``: our value beside the paper's) and its
 (``targets.csv`` of the method, met or missed), and one deployment table: every trained
 network of every method (its ``deployment.csv``, :mod:`neurender.deployment`) beside
 the papers' network times (``paper_numbers.csv`` rows of metric :data:`PAPER_TIME`, whose
-note names the hardware) and our hardware. A method whose stage has not produced
-anything says so. Figures, viewer data and the viewers' code (three.js, bundled in
-``static/viewers.min.js``) are embedded, so the file opens from disk with no server.
+note names the hardware) and our hardware. The sections are the registered methods'
+(:data:`neurender.methods.METHODS`: ``key``, ``title``, ``citation``, ``link``), in that
+order; a method whose stage has not produced anything says so. Figures, viewer data and
+the viewers' code (three.js, bundled in ``static/viewers.min.js``) are embedded, so the
+file opens from disk with no server.
 """
 
 from __future__ import annotations
 
 import base64
-import dataclasses
 import datetime
 import html
 import json
@@ -28,57 +29,15 @@ from pathlib import Path
 import jinja2
 import pandas as pd
 
-from neurender import io, viewer_data
+from neurender import io, methods, viewer_data
 from neurender.deployment import read_deployment
+from neurender.method import Method
 from neurender.tables import TIDY_COLUMNS, lookup
 
 #: Tables longer than this many rows are shown collapsed.
 LONG_TABLE_ROWS = 12
 #: The metric of the papers' network times per frame in ``paper_numbers.csv``.
 PAPER_TIME = "network_ms_per_frame"
-
-
-@dataclasses.dataclass(frozen=True)
-class Section:
-    key: str  # the method's folder under results/ and its value in the ``method`` column
-    title: str
-    citation: str  # the publication the method and the published numbers come from
-    link: str  # its DOI (or URL)
-
-
-SECTIONS = (
-    Section(
-        "prt",
-        "DeepPRT: deep precomputed radiance transfer for deformable objects",
-        "Yue Li, Pablo Wiedemann, Kenny Mitchell. Deep Precomputed Radiance Transfer for "
-        "Deformable Objects. Proceedings of the ACM on Computer Graphics and Interactive "
-        "Techniques 2(1), 2019 (I3D 2019).",
-        "https://doi.org/10.1145/3320284",
-    ),
-    Section(
-        "ndr",
-        "NDR: neural direct-illumination renderer",
-        "Christian Suppan, Andrew Chalmers, Junhong Zhao, Alex Doronin, Taehyun Rhee. Neural "
-        "Screen Space Rendering of Direct Illumination. Pacific Graphics 2021 Short Papers, "
-        "The Eurographics Association, 2021.",
-        "https://doi.org/10.2312/pg.20211385",
-    ),
-    Section(
-        "metaballs",
-        "Image-space metaballs (pix2pix)",
-        "Robert Horvath. Image-Space Metaballs Using Deep Learning. Master's thesis, TU Wien, "
-        "Faculty of Informatics, 2019 (advisor Ivan Viola).",
-        "https://repositum.tuwien.at",
-    ),
-    Section(
-        "simplification",
-        "Appearance-driven simplification",
-        "Jon Hasselgren, Jacob Munkberg, Jaakko Lehtinen, Miika Aittala, Samuli Laine. "
-        "Appearance-Driven Automatic 3D Model Simplification. Eurographics Symposium on "
-        "Rendering 2021.",
-        "https://doi.org/10.2312/sr.20211293",
-    ),
-)
 
 
 def _package_csv(name: str) -> pd.DataFrame:
@@ -97,7 +56,7 @@ def headlines() -> pd.DataFrame:
 
 
 def _method_of(path: Path) -> str | None:
-    keys = {s.key for s in SECTIONS}
+    keys = {m.key for m in methods.METHODS}
     return next((part for part in path.parts if part in keys), None)
 
 
@@ -211,7 +170,7 @@ def _targets(table: pd.DataFrame | None) -> dict:
 
 
 def _short_title(key: str) -> str:
-    return next(s.title.split(":")[0] for s in SECTIONS if s.key == key)
+    return methods.by_key(key).short_title
 
 
 def _bytes(n: float) -> str:
@@ -226,7 +185,7 @@ def deployment_summary(tables: Sequence[Path]) -> dict | None:
     if not files:
         return None
     ours = pd.concat([read_deployment(f) for f in files], ignore_index=True)
-    order = {s.key: i for i, s in enumerate(SECTIONS)}
+    order = {m.key: i for i, m in enumerate(methods.METHODS)}
     ours = ours.sort_values("method", key=lambda m: m.map(order), kind="stable")
     shown = pd.DataFrame(
         {
@@ -281,7 +240,7 @@ def _viewer(path: Path, index: int) -> dict:
     }
 
 
-def _section(section: Section, tables: list[Path], figures: list[Path], viewers: list[dict]):
+def _section(section: Method, tables: list[Path], figures: list[Path], viewers: list[dict]):
     frames = {t.stem: io.read_csv(t) for t in tables}
     paper = paper_numbers()[lambda p: p.method == section.key].drop(columns="method")
     rendered = []
@@ -335,7 +294,7 @@ def build_report(
         viewers: viewer files (:mod:`neurender.viewer_data`) under ``results/<method>/``.
     """
     sections = []
-    for index, section in enumerate(SECTIONS):
+    for index, section in enumerate(methods.METHODS):
         own_viewers = [
             _viewer(Path(v), 100 * index + k)
             for k, v in enumerate(p for p in viewers if _method_of(Path(p)) == section.key)

@@ -8,6 +8,10 @@ Snakefile can read it when it builds the DAG.
 #: The built-in use cases (paper 4.1: the detailed head; 4.5: a metaball implicit surface).
 CASES = ("head", "metaballs")
 
+#: The simplified meshes every case's evaluation renders (:mod:`neurender.simplify.evaluate`):
+#: a QEM decimation, the decimation with baked textures, and ours (optimised).
+VARIANTS = ("qem", "baked", "ours")
+
 CASE_FILES = {
     "lowpoly": "lowpoly.npz",
     "baked_normal": "baked_normal.png",

@@ -24,11 +24,10 @@ import torch
 
 from neurender import io, metrics
 from neurender.display import srgb
-from neurender.simplify import export, formats, render, terminator, views
+from neurender.simplify import VARIANTS, export, formats, render, terminator, views
 from neurender.simplify.mesh_ops import LowPolyMesh
 from neurender.tables import tidy_rows
 
-VARIANTS = ("qem", "baked", "ours")
 #: Exported files read back and rendered, by variant name (user assets).
 EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
 

@@ -8,7 +8,7 @@ import pandas as pd
 
 from neurender.display import srgb
 from neurender.plots import plt, save_figure
-from neurender.simplify.evaluate import VARIANTS
+from neurender.simplify import VARIANTS
 
 
 def object_crop(alpha: np.ndarray, margin: int = 4) -> tuple[slice, slice]:

@@ -60,29 +60,3 @@ def metaballs_viewer_params():
 def metaballs_user_scenes_file():
     """The user's scenes CSV (its job is only asked for when one is set)."""
     return config["metaballs"]["user_scenes"] or "metaballs.user_scenes is not set"
-
-
-def metaballs_report_tables():
-    tables = ("targets", "metrics", "timing", "deployment", "data")
-    tables += ("user_scenes",) if config["metaballs"]["user_scenes"] else ()
-    return expand("results/metaballs/{table}.csv", table=tables)
-
-
-def metaballs_report_figures():
-    names = (
-        "comparison",
-        "accuracy_by_scene",
-        "demo_network_vs_raymarch",
-        "temporal_stability",
-        "frame_time_vs_balls",
-        "examples",
-    )
-    names += ("your_scenes",) if config["metaballs"]["user_scenes"] else ()
-    figures = expand("results/metaballs/figures/{name}.png", name=names)
-    return figures + ["results/metaballs/figures/demo.gif"]
-
-
-def metaballs_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
-    the demo animation."""
-    return ["results/metaballs/viewers/demo.json"]

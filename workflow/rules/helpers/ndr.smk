@@ -237,29 +237,3 @@ def ndr_targets_params():
         "job_threads": [threads for _, threads in ndr_benchmarks()],
         "cores": workflow.cores,
     }
-
-
-def ndr_report_tables():
-    tables = (
-        "targets",
-        "metrics",
-        "timing",
-        "deployment",
-        "relighting",
-        "furnace",
-        "data",
-    )
-    tables += ("user_objects",) if config["ndr"]["user_objects"] else ()
-    return expand("results/ndr/{table}.csv", table=tables)
-
-
-def ndr_report_figures():
-    names = ("buffers", "comparison", "relighting", "training_curves")
-    names += ("your_objects",) if config["ndr"]["user_objects"] else ()
-    return expand("results/ndr/figures/{name}.png", name=names)
-
-
-def ndr_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
-    the relit test sample."""
-    return ["results/ndr/viewers/relight.json"]

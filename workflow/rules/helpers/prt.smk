@@ -184,30 +184,3 @@ def prt_train_priority(wildcards):
     seconds-long MoMoPRT fits (priority 0) in the gaps, so the two single-thread training
     jobs keep both cores busy until the last one ends."""
     return 1 if wildcards.object in EXPERIMENTS else 2
-
-
-def prt_report_tables():
-    tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
-    tables += ("benchmark",)
-    experiments = expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS)
-    return expand("results/prt/{table}.csv", table=tables) + experiments
-
-
-def prt_report_figures():
-    kinds = ("prediction", "frames", "meshes")
-    per_object = expand(
-        "results/prt/figures/{object}_{kind}.png", object=PRT_OBJECTS, kind=kinds
-    )
-    experiments = expand("results/prt/figures/{x}.png", x=PRT_EXPERIMENTS)
-    fixed = ["loss_curves", "equal_quality", "light_probes"]
-    if len(config["prt"]["probes"]) >= 2:
-        fixed.append(f"{PRT_OBJECTS[0]}_relight")
-    return (
-        per_object + experiments + expand("results/prt/figures/{name}.png", name=fixed)
-    )
-
-
-def prt_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
-    one per object."""
-    return expand("results/prt/viewers/{object}.json", object=PRT_OBJECTS)

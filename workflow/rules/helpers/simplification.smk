@@ -120,26 +120,5 @@ def simplify_evaluate_inputs(wildcards):
     return files
 
 
-def simplify_report_tables():
-    tables = ("targets", "metrics", "stats")
-    return (
-        expand("results/simplification/{table}.csv", table=tables)
-        if SIMPLIFY_CASES
-        else []
-    )
-
-
-def simplify_report_figures():
-    names = ("comparison", "loss_curves") if SIMPLIFY_CASES else ()
-    names += tuple(f"{case}_meshes" for case in SIMPLIFY_CASES)
-    return expand("results/simplification/figures/{name}.png", name=names)
-
-
 wildcard_constraints:
     case="|".join(SIMPLIFY_CASES) or "-",
-
-
-def simplify_report_viewers():
-    """The viewer files (:mod:`neurender.viewer_data`) of the report's interactive views:
-    one per use case (built-in and user assets)."""
-    return expand("results/simplification/viewers/{case}.json", case=SIMPLIFY_CASES)

@@ -1,0 +1,121 @@
+"""The image-space metaballs as the rest of the project sees them
+(:class:`neurender.method.Method`): their config rules, the work of each of their rules
+and their report section's files. Read at DAG time: imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+from neurender import checks, io
+from neurender.metaballs import GAN_VARIANTS, MIRRORINGS, VARIANTS
+from neurender.metaballs.scene_file import read_user_scenes
+from neurender.method import Method, ReportInputs, Rule, Units
+
+STAGE = "metaballs"
+#: A training step with the discriminator costs this many steps without it (measured
+#: on the 2-core reference CPU; ``benchmarks/gpu_check.py`` counts GPU steps alike).
+GAN_STEP_COST = 3.7
+
+
+def problems(config: Mapping[str, Any]) -> Iterator[str]:
+    """The config rules of the metaballs' section the schema cannot state."""
+    yield from checks.ordered(config, "metaballs", "balls")
+    yield from checks.ordered(config, "metaballs", "radius")
+    yield from checks.power_of_two_at_least(
+        config["metaballs"]["width"], 32, "metaballs.width", "the pix2pix U-Net halves it to 1"
+    )
+    scenes = config["metaballs"]["user_scenes"]
+    if scenes and not checks.made_by_the_workflow(scenes):
+        try:
+            read_user_scenes(scenes)
+        except (OSError, ValueError) as err:
+            yield f"metaballs.user_scenes = {scenes!r}: {err}"
+
+
+def _examples(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Ray-marched pixels x the mean number of balls (the middle of ``metaballs.balls``)."""
+    mb = cfg["metaballs"]
+    w = mb["width"]
+    count = mb["examples"][wildcards.get("split", "train")]
+    return count * w * w * sum(mb["balls"]) / 2 / 1e6, w * w / 1e3
+
+
+def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Steps x pixels x the generator's width squared (a GAN step costs more)."""
+    mb, mm = cfg["metaballs"], cfg["metaballs_model"]
+    w = mb["width"]
+    gan = GAN_STEP_COST if wildcards.get("variant", "pix2pix") in GAN_VARIANTS else 1.0
+    flips = MIRRORINGS if mm["flips"] else 1
+    steps = mm["epochs"] * flips * mb["examples"]["train"]
+    data_mb = min(mb["examples"]["train"] * w * w * 12, io.IN_MEMORY_LIMIT_BYTES) / 1e6
+    return steps * w * w * mm["ngf"] ** 2 * gan / 1e9, data_mb
+
+
+def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Per network: an export, and 2 x 23 timed frames."""
+    w, ngf = cfg["metaballs"]["width"], cfg["metaballs_model"]["ngf"]
+    return len(VARIANTS) * (1 + w * w * ngf**2 / 1e6), w * w / 1e3
+
+
+def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The demo rendered by every network and by the ray marcher."""
+    w, frames = cfg["metaballs"]["width"], cfg["metaballs_model"]["demo_frames"]
+    renderers = len(VARIANTS) + 1
+    return frames * w * w * renderers / 1e6, frames * w * w * renderers / 1e3
+
+
+def _test(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The test examples and the demo's frames."""
+    mb, mm = cfg["metaballs"], cfg["metaballs_model"]
+    w = mb["width"]
+    return (mb["examples"]["test"] + mm["demo_frames"]) * w * w / 1e6, w * w / 1e3
+
+
+def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
+    """The tables, figures (the demo's GIF last) and viewer (the demo) of the metaballs'
+    report section; the user scenes' table and figure when there are any."""
+    tables = ("targets", "metrics", "timing", "deployment", "data")
+    figures = (
+        "comparison",
+        "accuracy_by_scene",
+        "demo_network_vs_raymarch",
+        "temporal_stability",
+        "frame_time_vs_balls",
+        "examples",
+    )
+    if config["metaballs"]["user_scenes"]:
+        tables += ("user_scenes",)
+        figures += ("your_scenes",)
+    return ReportInputs(
+        tables=[f"results/metaballs/{t}.csv" for t in tables],
+        figures=[f"results/metaballs/figures/{name}.png" for name in figures]
+        + ["results/metaballs/figures/demo.gif"],
+        viewers=["results/metaballs/viewers/demo.json"],
+    )
+
+
+METHOD = Method(
+    key="metaballs",
+    title="Image-space metaballs (pix2pix)",
+    citation=(
+        "Robert Horvath. Image-Space Metaballs Using Deep Learning. Master's thesis, TU Wien, "
+        "Faculty of Informatics, 2019 (advisor Ivan Viola)."
+    ),
+    link="https://repositum.tuwien.at",
+    config_sections=("metaballs", "metaballs_model"),
+    problems=problems,
+    report_inputs=report_inputs,
+    rules={
+        "metaballs_examples": Rule(STAGE, _examples),
+        "metaballs_summary": Rule(STAGE),
+        "metaballs_train": Rule(STAGE, _train, gpu=True),
+        "metaballs_evaluate": Rule(STAGE, _test),
+        "metaballs_demo": Rule(STAGE, _test),
+        "metaballs_deploy": Rule(STAGE, _deploy),
+        "metaballs_targets": Rule(STAGE),
+        "metaballs_user_scenes": Rule(STAGE),
+        "metaballs_viewer": Rule(STAGE, _viewer),
+    },
+)

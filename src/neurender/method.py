@@ -1,0 +1,93 @@
+"""What a method tells the rest of the project: one :class:`Method` record per method
+package (``<package>/method.py``), listed once in :mod:`neurender.methods`.
+
+The config checks, the cost model, the plan, the report and the report rule read these
+records and nothing else of a method, so a new method is a new package with its record,
+and no shared module changes. A record's module is read when Snakemake builds the DAG: it
+imports only plain Python, numpy and pandas (never torch or Mitsuba).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any
+
+#: ``(time units, memory units)`` of one job: its work, which ``costs.csv``'s per-rule lines
+#: turn into seconds and MB (:mod:`neurender.costs`).
+Units = tuple[float, float]
+#: ``work(config, wildcards)``: the :data:`Units` of one job of a rule under the full
+#: (defaults-filled) config and the job's wildcard values.
+Work = Callable[[Mapping[str, Any], Mapping[str, str]], Units]
+
+
+def no_work(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The work of a rule whose cost does not grow with the config: none beyond its fixed
+    cost."""
+    return 0.0, 0.0
+
+
+def unet_work(widths: list[int]) -> float:
+    """Multiply-adds per output pixel of a U-Net with ``widths`` per level, relative:
+    sum over levels of ``width^2`` times the level's share of pixels."""
+    return sum(w * w / 4**level for level, w in enumerate(widths)) / 1e3
+
+
+@dataclasses.dataclass(frozen=True)
+class Rule:
+    """One rule of the workflow as the plan and the scheduler see it.
+
+    ``stage``: the line of ``python -m neurender.plan``'s summary it is counted under;
+    ``work``: its work measure (:data:`Work`); ``gpu``: its job runs on a GPU when the
+    config asks for GPUs (config key ``gpus``).
+    """
+
+    stage: str
+    work: Work = no_work
+    gpu: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class ReportInputs:
+    """The files a method's report section shows, all under ``results/<key>/``: CSV
+    tables, PNG/GIF figures and viewer files (:mod:`neurender.viewer_data`), in the order
+    the section shows them."""
+
+    tables: list[str]
+    figures: list[str]
+    viewers: list[str]
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """One method of the project.
+
+    Attributes:
+        key: its results folder (``results/<key>/``), its report section and the value of
+            the ``method`` column of its rows in every table, among them its published
+            numbers (``report/paper_numbers.csv``), headline rows (``report/headlines.csv``)
+            and target thresholds (``report/targets.csv``).
+        title: the report section's heading; the part before a colon is its short name.
+        citation: the publication the method and its published numbers come from.
+        link: the publication's DOI (or URL).
+        config_sections: the top-level config sections it reads (schema
+            ``workflow/schemas/config.schema.yaml``).
+        problems: ``problems(config)``: every config rule the (defaults-filled) config
+            breaks that the schema cannot state, one sentence each naming keys and values.
+        report_inputs: ``report_inputs(config)``: the files of its report section.
+        rules: every rule of its rules file, by name.
+    """
+
+    key: str
+    title: str
+    citation: str
+    link: str
+    config_sections: tuple[str, ...]
+    problems: Callable[[Mapping[str, Any]], Iterator[str]]
+    report_inputs: Callable[[Mapping[str, Any]], ReportInputs]
+    rules: Mapping[str, Rule]
+
+    @property
+    def short_title(self) -> str:
+        """The name the report's summary tables give the method."""
+        return self.title.split(":")[0]

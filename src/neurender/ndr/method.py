@@ -1,0 +1,157 @@
+"""NDR as the rest of the project sees it (:class:`neurender.method.Method`): its config
+rules, the work of each of its rules and its report section's files. Read at DAG time:
+imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from neurender import asset_files, checks, io
+from neurender.method import Method, ReportInputs, Rule, Units, unet_work
+from neurender.ndr import DIFFUSE_VARIANTS, MESH_SUFFIXES
+from neurender.viewer_data import TURNS
+
+STAGE = "NDR"
+
+
+def problems(config: Mapping[str, Any]) -> Iterator[str]:
+    """The config rules of NDR's sections (``ndr``, ``ndr_model``) the schema cannot state."""
+    ndr, model = config["ndr"], config["ndr_model"]
+    yield from checks.ordered(config, "ndr", "primitives")
+    yield from checks.halvable(ndr["width"], model["widths"], "ndr.width", "ndr_model.widths")
+    if "pix2pix" in model["variants"]:
+        yield from checks.power_of_two_at_least(
+            ndr["width"], 32, "ndr.width", "the pix2pix baseline's U-Net halves it to 1 pixel"
+        )
+    yield from checks.square(ndr["coarse_samples"], "ndr.coarse_samples")
+    if ndr["reference_spp"] < 8 * ndr["spp"]:
+        yield (
+            f"ndr.reference_spp = {ndr['reference_spp']}: expected at least 8 x ndr.spp = "
+            f"{8 * ndr['spp']} (a clean reference for the test samples)"
+        )
+    if ndr["coarse_height"] > ndr["environment_height"]:
+        yield (
+            f"ndr.coarse_height = {ndr['coarse_height']}: expected at most "
+            f"ndr.environment_height = {ndr['environment_height']}"
+        )
+    if model["relight_sample"] >= ndr["samples"]["test"]:
+        yield (
+            f"ndr_model.relight_sample = {model['relight_sample']}: expected below "
+            f"ndr.samples.test = {ndr['samples']['test']}"
+        )
+    folder = ndr["user_probes_dir"]
+    if folder and not checks.made_by_the_workflow(folder) and not any(Path(folder).glob("*.exr")):
+        yield f"ndr.user_probes_dir = {folder!r}: expected a folder holding *.exr lat-long maps"
+    for name, path in ndr["user_objects"].items():
+        if checks.made_by_the_workflow(path):
+            continue
+        if Path(path).suffix.lower() not in MESH_SUFFIXES:
+            yield (
+                f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
+                f"({', '.join(MESH_SUFFIXES)})"
+            )
+        elif not Path(path).is_file():
+            yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
+        else:
+            yield from (
+                f"ndr.user_objects entry {name!r}: {problem}"
+                for problem in asset_files.missing(path)
+            )
+
+
+def _data(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Mitsuba samples: a split's samples x pixels x (samples per pixel + coarse ones)."""
+    ndr = cfg["ndr"]
+    w = ndr["width"]
+    kind, _, part = wildcards.get("split", "train").rpartition("_")
+    if kind == "sunlit":
+        count = ndr["sunlit_samples"]
+    else:
+        count = (ndr["diffuse_samples"] if kind else ndr["samples"])[part]
+    spp = ndr["spp"] + (ndr["reference_spp"] if part == "test" else 0)
+    return count * w * w * (spp + ndr["coarse_samples"]) / 1e6, w * w / 1e3
+
+
+def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Epochs x training pixels x the U-Net's multiply-adds per pixel."""
+    ndr, nm = cfg["ndr"], cfg["ndr_model"]
+    w = ndr["width"]
+    diffuse = wildcards.get("variant", "ndr") in DIFFUSE_VARIANTS
+    count = (ndr["diffuse_samples"] if diffuse else ndr["samples"])["train"]
+    pixels = count * w * w
+    # Splits over the in-memory limit are read from disk sample by sample.
+    data_mb = min(pixels * 30 * 4, io.IN_MEMORY_LIMIT_BYTES) / 1e6
+    return nm["epochs"] * pixels * unet_work(nm["widths"]) / 1e6, data_mb
+
+
+def _test(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every test sample through every variant."""
+    ndr, nm = cfg["ndr"], cfg["ndr_model"]
+    w = ndr["width"]
+    tests = ndr["samples"]["test"] + ndr["diffuse_samples"]["test"]
+    return tests * w * w * len(nm["variants"]) / 1e6, tests * w * w * 40 / 1e6
+
+
+def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """One test sample rendered per turn of the light."""
+    ndr = cfg["ndr"]
+    w = ndr["width"]
+    spp = ndr["spp"] + ndr["reference_spp"] + ndr["coarse_samples"]
+    return TURNS * w * w * spp / 1e6, TURNS * w * w * 40 / 1e6
+
+
+def _summary(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The furnace test's samples."""
+    w = cfg["ndr"]["width"]
+    return cfg["ndr"]["furnace_spp"] * w * w / 1e6, 0.0
+
+
+def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Per network: an export, and 2 x 23 timed frames."""
+    nm, w = cfg["ndr_model"], cfg["ndr"]["width"]
+    networks = len({"ndr", *nm["variants"]})
+    return networks * (1 + w * w * unet_work(nm["widths"]) / 1e3), w * w / 1e3
+
+
+def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
+    """The tables, figures and viewer (the relit test sample) of NDR's report section;
+    the user objects' table and figure when there are any."""
+    tables = ("targets", "metrics", "timing", "deployment", "relighting", "furnace", "data")
+    figures = ("buffers", "comparison", "relighting", "training_curves")
+    if config["ndr"]["user_objects"]:
+        tables += ("user_objects",)
+        figures += ("your_objects",)
+    return ReportInputs(
+        tables=[f"results/ndr/{t}.csv" for t in tables],
+        figures=[f"results/ndr/figures/{name}.png" for name in figures],
+        viewers=["results/ndr/viewers/relight.json"],
+    )
+
+
+METHOD = Method(
+    key="ndr",
+    title="NDR: neural direct-illumination renderer",
+    citation=(
+        "Christian Suppan, Andrew Chalmers, Junhong Zhao, Alex Doronin, Taehyun Rhee. Neural "
+        "Screen Space Rendering of Direct Illumination. Pacific Graphics 2021 Short Papers, "
+        "The Eurographics Association, 2021."
+    ),
+    link="https://doi.org/10.2312/pg.20211385",
+    config_sections=("ndr", "ndr_model"),
+    problems=problems,
+    report_inputs=report_inputs,
+    rules={
+        "ndr_data": Rule(STAGE, _data, gpu=True),
+        "ndr_summary": Rule(STAGE, _summary),
+        "ndr_train": Rule(STAGE, _train, gpu=True),
+        "ndr_evaluate": Rule(STAGE, _test),
+        "ndr_deploy": Rule(STAGE, _deploy),
+        "ndr_targets": Rule(STAGE),
+        "ndr_relight": Rule(STAGE, _test),
+        "ndr_user_objects": Rule(STAGE),
+        "ndr_viewer": Rule(STAGE, _viewer),
+    },
+)

@@ -1,0 +1,184 @@
+"""DeepPRT as the rest of the project sees it (:class:`neurender.method.Method`): its
+config rules, the work of each of its rules and its report section's files. Read at DAG
+time: imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from neurender import checks
+from neurender.lights import BUILTIN_PROBES
+from neurender.method import Method, ReportInputs, Rule, Units, unet_work
+from neurender.prt import EXPERIMENTS, OBJECTS, RESERVED, user_sequence_problems
+
+#: The plan's stages: the ground truth (data, transfer, figures) and the learned models.
+DATA, MODELS = "DeepPRT data", "DeepPRT models"
+#: Transfer coefficients per SH coefficient: 1 (diffuse) or 3 (glossy, per colour).
+GLOSSY_CHANNELS = 3
+
+
+def problems(config: Mapping[str, Any]) -> Iterator[str]:
+    """The config rules of DeepPRT's sections (``prt``, ``prt_model``) the schema cannot state."""
+    prt, model = config["prt"], config["prt_model"]
+    meshes, sequences = prt["user_meshes"], prt["user_sequences"]
+    yield from checks.known(prt["objects"], OBJECTS, {**meshes, **sequences}, "prt.objects")
+    for name in sorted(set(meshes) & set(sequences)):
+        yield f"prt user object {name!r} is both in prt.user_meshes and in prt.user_sequences"
+    for name in sorted((set(meshes) | set(sequences)) & set(RESERVED)):
+        yield (
+            f"prt user object {name!r}: the name of a built-in dataset; expected another name "
+            f"(reserved: {', '.join(RESERVED)})"
+        )
+    for name, entry in sequences.items():
+        yield from user_sequence_problems(name, entry, checks.made_by_the_workflow)
+    yield from checks.known(prt["probes"], BUILTIN_PROBES, prt["user_probes"], "prt.probes")
+    if prt["light"] not in prt["probes"]:
+        yield f"prt.light = {prt['light']!r}: expected one of prt.probes {prt['probes']}"
+    yield from checks.square(prt["directions"], "prt.directions")
+    yield from checks.square(prt["reference_directions"], "prt.reference_directions")
+    for count in model["equal_quality_directions"]:
+        yield from checks.square(count, "prt_model.equal_quality_directions entry")
+    if prt["reference_directions"] < 4 * prt["directions"]:
+        yield (
+            f"prt.reference_directions = {prt['reference_directions']}: expected at least 4 x "
+            f"prt.directions = {4 * prt['directions']} (a clean reference for the test frames)"
+        )
+    if prt["experiments"] and prt["experiment_train_frames"] > prt["frames"]["train"]:
+        yield (
+            f"prt.experiment_train_frames = {prt['experiment_train_frames']}: expected at most "
+            f"prt.frames.train = {prt['frames']['train']}"
+        )
+    yield from checks.ordered(config, "prt", "linear_range")
+    yield from checks.halvable(
+        prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths"
+    )
+    for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
+        if not checks.made_by_the_workflow(path) and not Path(path).is_file():
+            yield f"prt user entry {name!r}: file {path} does not exist"
+
+
+def _transfer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Rays traced: a split's frames x pixels x directions (half the hemisphere hit)."""
+    prt, n, frames = cfg["prt"], cfg["prt"]["resolution"], cfg["prt"]["frames"]
+    split = wildcards.get("split", "train")
+    count = frames.get(split, frames["test"])
+    dirs = prt["reference_directions"] if split == "test" else prt["directions"]
+    return count * n * n * dirs / 2 / 1e6, n * n * dirs / 1e6
+
+
+def _noise_floor(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    prt, n = cfg["prt"], cfg["prt"]["resolution"]
+    return prt["noise_floor_frames"] * n * n * prt["directions"] / 1e6, n * n / 1e3
+
+
+def _benchmark(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Rays of 6 frames, and of the paper's 256^2 x 1024-direction scale if asked for."""
+    prt, n = cfg["prt"], cfg["prt"]["resolution"]
+    paper = 2 * 256 * 256 * 1024 / 2 if prt["benchmark_paper_scale"] else 0
+    return (6 * n * n * prt["directions"] / 2 + paper) / 1e6, (paper > 0) * 65.536
+
+
+def _frames(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every frame's geometry-image pixels, and the source mesh's vertices."""
+    prt, n = cfg["prt"], cfg["prt"]["resolution"]
+    return (sum(prt["frames"].values()) * n * n + prt["source_vertices"]) / 1e6, n * n / 1e3
+
+
+def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Epochs x training pixels x the U-Net's multiply-adds per pixel."""
+    prt, pm = cfg["prt"], cfg["prt_model"]
+    n, frames = prt["resolution"], prt["frames"]
+    k = prt["n_bands"] ** 2 * (GLOSSY_CHANNELS if wildcards.get("material") == "glossy" else 1)
+    pixels = (frames["train"] + frames["val"]) * n * n
+    return pm["epochs"] * pixels * unet_work(pm["widths"]) / 1e6, pixels * (6 + k) / 1e6
+
+
+def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The equal-quality rays and the validation and test renders."""
+    prt, pm = cfg["prt"], cfg["prt_model"]
+    n, frames = prt["resolution"], prt["frames"]
+    rays = frames["test"] * n * n * prt["directions"] / 2
+    rays += (
+        prt["noise_floor_frames"]
+        * n
+        * n
+        / 2
+        * (sum(pm["equal_quality_directions"]) + prt["reference_directions"])
+    )
+    renders = (frames["val"] + frames["test"]) * pm["render_resolution"] ** 2 * 8
+    return (rays + renders) / 1e6, (frames["val"] + frames["test"]) * n * n * 60 / 1e6
+
+
+def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The test split read, one frame predicted."""
+    n, frames = cfg["prt"]["resolution"], cfg["prt"]["frames"]
+    return frames["test"] * n * n / 1e6, frames["test"] * n * n * 60 / 1e6
+
+
+def _mesh_figure(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    n, frames = cfg["prt"]["resolution"], cfg["prt"]["frames"]
+    return sum(frames.values()) * n * n / 1e6, n * n / 1e3
+
+
+def _momoprt(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """A least-squares fit per SH coefficient over the training pixels."""
+    prt, n, frames = cfg["prt"], cfg["prt"]["resolution"], cfg["prt"]["frames"]
+    pixels = (frames["train"] + frames["val"]) * n * n
+    return pixels * prt["n_bands"] ** 2 / 1e6, pixels * prt["n_bands"] ** 2 * 3 / 1e6
+
+
+def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
+    """The tables, figures (three per object, one per experiment) and viewers (one per
+    object) of DeepPRT's report section."""
+    objects = list(config["prt"]["objects"])
+    experiments = EXPERIMENTS if config["prt"]["experiments"] else ()
+    tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
+    tables += ("benchmark",)
+    kinds = ("prediction", "frames", "meshes")
+    fixed = ["loss_curves", "equal_quality", "light_probes"]
+    if len(config["prt"]["probes"]) >= 2:
+        fixed.append(f"{objects[0]}_relight")
+    figures = [f"{o}_{kind}" for o in objects for kind in kinds] + list(experiments) + fixed
+    return ReportInputs(
+        tables=[f"results/prt/{t}.csv" for t in tables]
+        + [f"results/prt/{x}/experiment.csv" for x in experiments],
+        figures=[f"results/prt/figures/{name}.png" for name in figures],
+        viewers=[f"results/prt/viewers/{o}.json" for o in objects],
+    )
+
+
+METHOD = Method(
+    key="prt",
+    title="DeepPRT: deep precomputed radiance transfer for deformable objects",
+    citation=(
+        "Yue Li, Pablo Wiedemann, Kenny Mitchell. Deep Precomputed Radiance Transfer for "
+        "Deformable Objects. Proceedings of the ACM on Computer Graphics and Interactive "
+        "Techniques 2(1), 2019 (I3D 2019)."
+    ),
+    link="https://doi.org/10.1145/3320284",
+    config_sections=("prt", "prt_model"),
+    problems=problems,
+    report_inputs=report_inputs,
+    rules={
+        "prt_probe": Rule(DATA),
+        "prt_geometry_image": Rule(DATA, _frames),
+        "prt_sequence": Rule(DATA, _frames),
+        "prt_transfer": Rule(DATA, _transfer),
+        "prt_noise_floor": Rule(DATA, _noise_floor),
+        "prt_figure": Rule(DATA),
+        "prt_summary": Rule(DATA),
+        "prt_benchmark": Rule(DATA, _benchmark),
+        "prt_probes_figure": Rule(DATA),
+        "prt_mesh_figure": Rule(DATA, _mesh_figure),
+        "prt_train": Rule(MODELS, _train, gpu=True),
+        "prt_momoprt": Rule(MODELS, _momoprt),
+        "prt_evaluate": Rule(MODELS, _evaluate),
+        "prt_model_summary": Rule(MODELS),
+        "prt_experiment": Rule(MODELS),
+        "prt_relight": Rule(MODELS),
+        "prt_viewer": Rule(MODELS, _viewer),
+    },
+)
