@@ -11,21 +11,17 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from neurender import asset_files
+from neurender import asset_files, user_paths
 from neurender.lights import BUILTIN_PROBES
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.ndr import MESH_SUFFIXES as NDR_MESH_SUFFIXES
+from neurender.ndr import user_probe_files
 from neurender.prt import OBJECTS, RESERVED, user_sequence_problems
+from neurender.user_paths import file_problem, made_by_the_workflow
 
 
 class ConfigError(ValueError):
     """A config value that breaks one of the rules below."""
-
-
-def made_by_the_workflow(path: str) -> bool:
-    """Paths under ``results/`` are outputs of the workflow (e.g. the example assets),
-    checked when the job that makes them has run."""
-    return Path(path).parts[:1] == ("results",)
 
 
 def _ordered(config: Mapping, section: str, key: str) -> Iterator[str]:
@@ -95,8 +91,8 @@ def _prt_problems(config: Mapping) -> Iterator[str]:
     yield from _ordered(config, "prt", "linear_range")
     yield from _halvable(prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths")
     for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
-        if not made_by_the_workflow(path) and not Path(path).is_file():
-            yield f"prt user entry {name!r}: file {path} does not exist"
+        if not made_by_the_workflow(path) and file_problem(path):
+            yield f"prt user entry {name!r}: file {path} {file_problem(path)}"
 
 
 def _ndr_problems(config: Mapping) -> Iterator[str]:
@@ -124,7 +120,7 @@ def _ndr_problems(config: Mapping) -> Iterator[str]:
             f"ndr.samples.test = {ndr['samples']['test']}"
         )
     folder = ndr["user_probes_dir"]
-    if folder and not made_by_the_workflow(folder) and not any(Path(folder).glob("*.exr")):
+    if folder and not made_by_the_workflow(folder) and not user_probe_files(folder):
         yield f"ndr.user_probes_dir = {folder!r}: expected a folder holding *.exr lat-long maps"
     for name, path in ndr["user_objects"].items():
         if made_by_the_workflow(path):
@@ -134,8 +130,8 @@ def _ndr_problems(config: Mapping) -> Iterator[str]:
                 f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
                 f"({', '.join(NDR_MESH_SUFFIXES)})"
             )
-        elif not Path(path).is_file():
-            yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
+        elif file_problem(path):
+            yield f"ndr.user_objects entry {name!r}: file {path} {file_problem(path)}"
         else:
             yield from (
                 f"ndr.user_objects entry {name!r}: {problem}"
@@ -177,8 +173,8 @@ def _simplify_problems(config: Mapping) -> Iterator[str]:
             yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
         elif made_by_the_workflow(path):
             continue
-        elif not Path(path).is_file():
-            yield f"{key}.path = {path!r}: file does not exist"
+        elif file_problem(path):
+            yield f"{key}.path = {path!r}: file {file_problem(path)}"
         else:
             yield from (
                 f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)
@@ -190,7 +186,7 @@ def problems(config: Mapping[str, Any]) -> list[str]:
     found = []
     for check in (_prt_problems, _ndr_problems, _metaballs_problems, _simplify_problems):
         found += list(check(config))
-    return found
+    return found + list(user_paths.problems(config))
 
 
 def check(config: Mapping[str, Any]) -> None:
