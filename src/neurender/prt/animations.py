@@ -89,12 +89,27 @@ def load_sequence(
     Args:
         frames, test_frames: folders, globs or files (:func:`neurender.prt.mesh_files`).
         what: the config entry, for messages.
+
+    Raises:
+        ValueError: as :func:`load_frames`, and for a test frame whose vertex positions
+            equal a training frame's, naming both files.
     """
     sequence = load_frames(mesh_files(frames), f"{what}.frames")
     if not test_frames:
         return sequence, None
     rest = (sequence.files[0], sequence.positions[0], sequence.faces)
-    return sequence, load_frames(mesh_files(test_frames), f"{what}.test_frames", rest)
+    tests = load_frames(mesh_files(test_frames), f"{what}.test_frames", rest)
+    # The config check compares files; this compares what was read (the same pose
+    # exported twice, or in another format), so no test score is one on training data.
+    trained = {p.tobytes(): f for p, f in zip(sequence.positions, sequence.files, strict=True)}
+    for positions, file in zip(tests.positions, tests.files, strict=True):
+        if positions.tobytes() in trained:
+            raise ValueError(
+                f"{what}.test_frames: frame {file} has the same vertex positions as the "
+                f"training frame {trained[positions.tobytes()]}; test frames must be other "
+                "poses than those of frames"
+            )
+    return sequence, tests
 
 
 def held_out(frames: int, test_fraction: float) -> int:
