@@ -200,3 +200,17 @@ def test_the_dry_run_refuses_braces_naming_the_key(tmp_path):
     assert code != 0
     assert f"metaballs.user_scenes = '{scenes}': {scenes} contains '{{v2}}'" in out
     assert "WildcardError" not in out
+
+
+def test_braces_in_a_texture_an_obj_names_are_refused_naming_the_key(smoke, tmp_path):
+    (tmp_path / "crate.obj").write_text("mtllib crate.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "crate.mtl").write_text("newmtl wood\nmap_Kd wood{v2}.png\n")
+    (tmp_path / "wood{v2}.png").write_bytes(b"")
+    changed = copy.deepcopy(smoke)
+    changed["ndr"]["user_objects"] = {"crate": str(tmp_path / "crate.obj")}
+    found = [p for p in rules.problems(changed) if "contains" in p]
+    assert found == [
+        f"ndr.user_objects.crate = {str(tmp_path / 'crate.obj')!r}: {tmp_path / 'wood{v2}.png'} "
+        "contains '{v2}', which Snakemake reads as a wildcard in an input file (it has no "
+        "escape for literal braces); rename the file or folder without braces"
+    ]

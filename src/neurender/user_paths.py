@@ -115,17 +115,34 @@ def config_paths(config: Mapping) -> Iterator[tuple[str, str]]:
     yield "metaballs.user_scenes", config["metaballs"]["user_scenes"]
     for name, entry in config["simplify"]["user_assets"].items():
         yield f"simplify.user_assets.{name}.path", entry["path"]
-    # Not the files an asset names (MTL, textures, glTF buffers): asset_files lists those.
+
+
+#: Keys whose file is a mesh that names other files (MTL, textures, glTF buffers).
+ASSET_KEYS = ("ndr.user_objects.", "simplify.user_assets.")
+
+
+def _inputs(key: str, path: str) -> list[str]:
+    """The files a user path brings into the DAG: its folder's or glob's files, and the
+    files a mesh names (:func:`neurender.asset_files.asset_inputs`)."""
+    files = [path, *map(str, files_of(path))]
+    if key.startswith(ASSET_KEYS) and file_problem(path) is None:
+        from neurender.asset_files import asset_inputs  # lazily: it may import this module
+
+        try:
+            files += asset_inputs(path)
+        except (OSError, ValueError):  # an unreadable mesh is named by the asset check
+            pass
+    return files
 
 
 def problems(config: Mapping) -> Iterator[str]:
     """Problems every user path shares, one sentence each naming the key and the file:
-    braces Snakemake would read as a wildcard, in the path or in a file of its folder or
-    glob (the workflow's own paths are checked only as written)."""
+    braces Snakemake would read as a wildcard, in the path, in a file of its folder or
+    glob, or in a file a mesh names (the workflow's own paths are checked as written)."""
     for key, path in config_paths(config):
         if not path:
             continue
-        files = [path] if made_by_the_workflow(path) else [path, *map(str, files_of(path))]
+        files = [path] if made_by_the_workflow(path) else _inputs(key, path)
         for file in dict.fromkeys(files):
             problem = wildcard_problem(file)
             if problem:
