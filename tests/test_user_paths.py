@@ -183,13 +183,19 @@ def test_the_dry_run_takes_a_leading_dot_slash_for_the_workflows_files(tmp_path)
     # The own-assets example's paths, written with ./ as a shell's tab completion does.
     code, out = _dry_run(
         tmp_path,
+        "prt:\n  user_sequences:\n    wave: {frames: ./results/examples/wave}\n"
         "ndr:\n  user_objects:\n    crate: ./results/examples/crate.obj\n"
+        "  user_probes_dir: ./results/examples/maps\n"
         "simplify:\n  user_assets:\n"
         "    crate: {path: ./results/examples/crate.obj, triangles: 96}\n"
         "metaballs:\n  user_scenes: ./results/examples/balls.csv\n",
     )
     assert code == 0, out
-    assert "input: results/examples/crate.obj" in out  # the example_assets rule's output
+    inputs = [line.strip() for line in out.splitlines() if line.strip().startswith("input:")]
+    assert not any("./results" in line for line in inputs)
+    # The example_assets rule's outputs, as it spells them, are the jobs' inputs.
+    for path in ("crate.obj", "wave", "maps", "balls.csv"):
+        assert any(f"results/examples/{path}" in line for line in inputs), path
     assert "rule simplify_prepare" in out and "rule ndr_user_objects" in out
 
 
