@@ -48,11 +48,16 @@ def mesh_files(paths: str | list[str]) -> list[Path]:
     return sorted(with_suffix(found, MESH_SUFFIXES + VTK_SUFFIXES), key=_natural_key)
 
 
-def _digest(path: Path) -> str:
+def _digest(path: Path) -> str | None:
+    """SHA-256 of the file's bytes; ``None`` when it cannot be read (the job that reads
+    the frames names the file and why)."""
     digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
     return digest.hexdigest()
 
 
@@ -64,6 +69,7 @@ def overlap_problems(key: str, frames: list[Path], test_frames: list[Path]) -> I
     by_bytes = {}
     for p in frames:
         by_bytes.setdefault(_digest(p), p)
+    by_bytes.pop(None, None)
     for p in test_frames:
         if p.resolve() in by_path:
             yield (
