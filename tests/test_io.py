@@ -90,3 +90,39 @@ def test_exr_mixed_precision(tmp_path):
     io.write_exr(tmp_path / "m.exr", {"P.x": np.ones((2, 3)), "T.00": np.ones((2, 3), np.float16)})
     back = io.read_exr(tmp_path / "m.exr")
     assert back["P.x"].dtype == np.float32 and back["T.00"].dtype == np.float16
+
+
+def test_a_tidy_table_keeps_names_that_look_missing_or_numeric(tmp_path):
+    # Names a user may give (objects, assets, scenes), written by pandas as every stage
+    # writes its table; read back they are the same strings and the values numbers.
+    names = ["NA", "None", "null", "nan", "N/A", "", "001", "1.0", "True"]
+    df = pd.DataFrame(
+        {
+            "method": "ndr",
+            "dataset": names,
+            "model": names[::-1],
+            "split": "test",
+            "object": names,
+            "metric": ["psnr", "NaN", "ssim", "null", "a", "b", "c", "d", "e"],
+            "value": [1.5, np.nan, 3.0, np.inf, -1.0, 0.0, 2.0, 3.0, 4.0],
+            "frame": range(9),
+        }
+    )
+    io.write_csv(tmp_path / "metrics.csv", df)
+    back = io.read_csv(tmp_path / "metrics.csv")
+    for column in ("dataset", "model", "object", "metric"):
+        assert back[column].tolist() == df[column].tolist()
+    assert back["value"].dtype == np.float64 and back["frame"].dtype == np.int64
+    np.testing.assert_array_equal(back["value"], df["value"])  # NaN and inf included
+    assert back.shape == df.shape
+
+
+def test_csv_errors_name_the_file_and_what_it_is(tmp_path):
+    (tmp_path / "folder.csv").mkdir()
+    with pytest.raises(FileNotFoundError, match=f"CSV file {tmp_path / 'folder.csv'} is a dir"):
+        io.read_csv(tmp_path / "folder.csv")
+    with pytest.raises(FileNotFoundError, match=f"EXR file {tmp_path / 'folder.csv'} is a dir"):
+        io.read_exr(tmp_path / "folder.csv")
+    (tmp_path / "long.csv").write_text("a,b\n1,2\n3,4,5\n")
+    with pytest.raises(OSError, match=f"CSV file {tmp_path / 'long.csv'}: .*line 3, saw 3"):
+        io.read_csv(tmp_path / "long.csv")

@@ -8,13 +8,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping
-from pathlib import Path
-
-
-def made_by_the_workflow(path: str) -> bool:
-    """Paths under ``results/`` are outputs of the workflow (e.g. the example assets),
-    checked when the job that makes them has run."""
-    return Path(path).parts[:1] == ("results",)
 
 
 def ordered(config: Mapping, section: str, key: str) -> Iterator[str]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from neurender import methods
+from neurender import methods, user_paths
 
 
 class ConfigError(ValueError):
@@ -20,7 +20,8 @@ class ConfigError(ValueError):
 def problems(config: Mapping[str, Any]) -> list[str]:
     """Every rule the (defaults-filled) ``config`` breaks, one sentence each, in the
     order of :data:`neurender.methods.METHODS`."""
-    return [problem for method in methods.METHODS for problem in method.problems(config)]
+    found = [problem for method in methods.METHODS for problem in method.problems(config)]
+    return found + list(user_paths.problems(config))
 
 
 def check(config: Mapping[str, Any]) -> None:

@@ -15,6 +15,7 @@ import contextlib
 import hashlib
 import os
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
@@ -22,6 +23,27 @@ import numpy as np
 import OpenEXR
 import pandas as pd
 import png
+
+from neurender import user_paths
+
+#: Columns read as text exactly as written, whatever they hold (``NA``, ``None``, ``001``
+#: and a blank are labels, not missing values or numbers): the tidy tables' and targets'
+#: labels (:mod:`neurender.tables`) and the keys that hold the users' names: assets
+#: (``case``, ``object``), maps (their file stems), metaball scenes; manifests' files.
+TEXT_COLUMNS = (
+    "method",
+    "dataset",
+    "model",
+    "split",
+    "metric",
+    "subject",
+    "check",
+    "case",
+    "object",
+    "map",
+    "scene",
+    "file",
+)
 
 #: A training split whose arrays would take more memory than this (bytes) stays on disk
 #: and is read one sample at a time (the papers' scale: NDR's 60 000 samples of 256^2
@@ -58,9 +80,12 @@ def atomic_path(path: PathLike) -> Iterator[Path]:
 
 
 def _require_file(path: PathLike, what: str) -> Path:
+    """``path`` as a Path; ``FileNotFoundError`` naming it and why when it is not a
+    regular file (missing, a directory, a FIFO...)."""
     p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"{what} file {p} does not exist")
+    problem = user_paths.file_problem(p)
+    if problem:
+        raise FileNotFoundError(f"{what} file {p} {problem}")
     return p
 
 
@@ -162,11 +187,30 @@ def write_csv(path: PathLike, frame: pd.DataFrame) -> None:
         frame.to_csv(tmp, index=False)
 
 
-def read_csv(path: PathLike, required: Sequence[str] = ()) -> pd.DataFrame:
-    """Read a CSV and check it has the ``required`` columns."""
+def read_csv(
+    path: PathLike, required: Sequence[str] = (), text: Sequence[str] = TEXT_COLUMNS
+) -> pd.DataFrame:
+    """Read a CSV and check it has the ``required`` columns.
+
+    The columns named in ``text`` are strings exactly as written (a blank cell is ``""``);
+    the others are parsed as pandas does (numbers, booleans, blanks and ``NA``-like cells
+    as NaN), so a tidy table written by :func:`write_csv` reads back equal.
+    """
     p = _require_file(path, "CSV")
     try:
-        frame = pd.read_csv(p)
+        # index_col=False: a row longer than the header is an error, not an index column
+        # that shifts every value one column to the right.
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            frame = pd.read_csv(p, index_col=False)
+            labels = [c for c in frame.columns if c in set(text)]
+            if labels:
+                raw = pd.read_csv(
+                    p, index_col=False, usecols=labels, dtype=str, keep_default_na=False
+                )
+                frame[labels] = raw[labels].fillna("")  # "" also for a short row's cells
+    except pd.errors.ParserWarning as err:
+        raise OSError(f"cannot parse CSV file {p}: a row has more cells than the header") from err
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise OSError(f"cannot parse CSV file {p}: {err}") from err
     missing = [c for c in required if c not in frame.columns]

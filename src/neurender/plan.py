@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from neurender import costs
+from neurender import costs, io
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The factor within which ``--check`` accepts a stage's estimate (docs/cluster.md).
@@ -93,7 +93,7 @@ def gpu_seconds_per_unit(pattern: str = "benchmarks/results/gpu_check_*.csv") ->
     files = sorted(glob.glob(str(ROOT / pattern)))
     if not files:
         return {}
-    table = pd.read_csv(files[-1])
+    table = io.read_csv(files[-1], ["device", "rule", "seconds_per_step", "units_per_step"])
     gpu = table[table.device.str.startswith("cuda")]
     return dict(zip(gpu.rule, gpu.seconds_per_step / gpu.units_per_step, strict=True))
 

@@ -135,3 +135,94 @@ def test_scores_are_the_test_sets_metrics_and_an_exact_renderer_scores_perfectly
         assert exact_rows[(label, "l1_normal")] < 1 / 255  # the truth went through 8 bits
         assert exact_rows[(label, "normal_error_mean_deg")] < 1.0
     assert shown["a"].circles.shape == (4, 32, 32) and shown["a"].truth.shape == (7, 32, 32)
+
+
+def _spreadsheet_csv(tmp_path, labels, name="typed.csv"):
+    """The scenes as a spreadsheet exports them: labels as typed, pandas writing the CSV
+    (a blank label is an empty cell)."""
+    rows = [
+        {"scene": s, "x": 0.2 * i, "y": 0.0, "z": 15.0, "radius": 1.0, "r": 0.5, "g": 0.5, "b": 0.5}
+        for i, s in enumerate(labels)
+    ]
+    return _csv(tmp_path, pd.DataFrame(rows), name)
+
+
+@pytest.mark.parametrize(
+    "labels",
+    [
+        ["001", "1", "1.0", "1"],  # three scenes, not one number
+        ["NA", "None", "null", "nan", "N/A", "NaN"],  # labels, not missing values
+        ["a", " a", "$x$"],
+    ],
+)
+def test_scene_labels_are_text_exactly_as_typed(tmp_path, labels):
+    balls = read_user_scenes(_spreadsheet_csv(tmp_path, labels))
+    assert balls["scene"].tolist() == labels
+    scenes = to_scenes(balls)
+    assert list(scenes) == list(dict.fromkeys(labels))
+    assert sum(len(s) for s in scenes.values()) == len(labels)  # no ball dropped
+
+
+def test_a_ball_without_a_label_is_refused_naming_the_file_and_line(tmp_path):
+    path = _spreadsheet_csv(tmp_path, ["a", "a", "", "b", "  "], "blank.csv")
+    with pytest.raises(ValueError) as err:
+        read_user_scenes(path)
+    assert str(err.value) == (
+        f"metaball scenes {path}: a ball without a scene label on line(s) 4, 6 (the header "
+        "is line 1); give every row its scene's label"
+    )
+
+
+def test_a_trailing_delimiter_does_not_shift_columns_and_an_extra_value_is_refused(tmp_path):
+    # A trailing delimiter on every row once made pandas take the labels as an index.
+    path = tmp_path / "trailing.csv"
+    path.write_text("scene,x,y,z,radius,r,g,b\na,0,0,15,1,0.5,0.6,0.7,\nb,1,0,15,1,0.5,0.6,0.7,\n")
+    balls = read_user_scenes(path)
+    assert balls["scene"].tolist() == ["a", "b"] and balls["x"].tolist() == [0.0, 1.0]
+    assert balls["b"].tolist() == [0.7, 0.7]
+    extra = tmp_path / "extra.csv"
+    extra.write_text("scene,x,y,z,radius,r,g,b\na,0,0,15,1,0.5,0.6,0.7,9\n")
+    with pytest.raises(OSError, match=f"cannot parse CSV file {extra}: a row has more cells"):
+        read_user_scenes(extra)
+
+
+def test_a_folder_or_fifo_given_as_the_scenes_file_is_named_as_such(tmp_path):
+    import os
+
+    folder = tmp_path / "scenes.csv"
+    folder.mkdir()
+    with pytest.raises(FileNotFoundError, match=f"CSV file {folder} is a directory"):
+        read_user_scenes(folder)
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(FileNotFoundError, match=f"CSV file {fifo} is not a regular file"):
+        read_user_scenes(fifo)
+    cfg = {"metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32}}
+    (problem,) = method.problems(
+        {"metaballs": {**cfg["metaballs"], "user_scenes": str(fifo)}}
+    )
+    assert problem == (
+        f"metaballs.user_scenes = '{fifo}': CSV file {fifo} is not a regular file (a FIFO, "
+        "socket or device)"
+    )
+
+
+def test_the_scenes_figure_draws_labels_as_plain_text(tmp_path, monkeypatch):
+    from neurender.metaballs import figures
+    from neurender.metaballs.evaluate import Showcase
+
+    drawn = {}
+
+    def keep(fig, path):
+        fig.canvas.draw()  # math text is parsed here: "$\\frac$" would raise
+        drawn["titles"] = [ax.title for ax in fig.axes]
+
+    monkeypatch.setattr(figures, "save_figure", keep)
+    stack = torch.zeros(7, 8, 8)
+    stack[4:7, 2:6, 2:6] = 1.0
+    labels = ["$x$", "$\\frac$", "a_b^c"]  # "$\\frac$" does not parse as math
+    shown = {s: Showcase(2, torch.zeros(4, 8, 8), stack, {"pix2pix": stack}) for s in labels}
+    figures.user_scenes_figure(shown, ["pix2pix"], str(tmp_path / "your_scenes.png"))
+    titles = [t for t in drawn["titles"] if "circles" in t.get_text()]
+    assert [t.get_text() for t in titles] == [f"scene {s} (2 balls): circles" for s in labels]
+    assert not any(t.get_parse_math() or t.get_usetex() for t in drawn["titles"])

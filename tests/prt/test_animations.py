@@ -102,7 +102,8 @@ def test_wave_sequence_pixels_follow_the_surface(tmp_path):
 
 def test_separate_test_frames_are_used_as_they_are(tmp_path):
     train = write_wave(tmp_path / "train", frames=6)
-    test = write_wave(tmp_path / "test", frames=3, start=20)
+    # Frames 7-9 of the cycle (start=20 was frames 0-2 again: the wave has period 10).
+    test = write_wave(tmp_path / "test", frames=3, start=7)
     inputs = {"frames": [str(train)], "test_frames": [str(test)]}
     _, seq, stats = run_jobs(tmp_path, "wave", inputs)
     assert stats["test_frames"] == 3
@@ -177,6 +178,22 @@ def test_test_frames_must_match_the_rest_frame(tmp_path):
     test = write_wave(tmp_path / "test", frames=2, resolution=10)
     with pytest.raises(ValueError, match=r"test_frames: frame .*has 121 vertices"):
         animations.load_sequence([str(train)], [str(test)], "prt.user_sequences.wave")
+
+
+def test_a_test_frame_with_a_training_pose_is_refused_naming_both(tmp_path):
+    # The same pose exported again in another format: other bytes, the same vertices.
+    mesh = trimesh.creation.icosphere(2)
+    train = write_mesh_sequence(tmp_path / "train", mesh, frames=4, suffix=".ply")
+    test = tmp_path / "test"
+    test.mkdir()
+    trimesh.load(train / "frame_002.ply", process=False).export(test / "pose.off")
+    with pytest.raises(ValueError) as info:
+        animations.load_sequence([str(train)], [str(test)], "prt.user_sequences.ball")
+    assert str(info.value) == (
+        f"prt.user_sequences.ball.test_frames: frame {test / 'pose.off'} has the same vertex "
+        f"positions as the training frame {train / 'frame_002.ply'}; test frames must be "
+        "other poses than those of frames"
+    )
 
 
 def test_several_components_are_refused_naming_the_file(tmp_path):

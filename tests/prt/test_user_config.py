@@ -1,13 +1,18 @@
 """Config keys of DeepPRT's user animations (prt.user_sequences): schema and config rules."""
 
 import copy
+import os
+import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
+import pyvista as pv
 import yaml
 from snakemake.utils import update_config, validate
 
 from neurender import config as rules
+from neurender.prt import mesh_files
 
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = str(ROOT / "workflow/schemas/config.schema.yaml")
@@ -35,8 +40,8 @@ def _with_sequences(cfg, sequences, objects=None):
 
 def _frames(folder: Path, count: int, suffix: str = ".obj") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
-    for f in range(count):
-        (folder / f"frame_{f:03d}{suffix}").write_text("v 0 0 0\n")
+    for f in range(count):  # every frame its own content, so no two files are equal
+        (folder / f"frame_{f:03d}{suffix}").write_text(f"v {f} 0 0\n# {folder.name}\n")
     return folder
 
 
@@ -153,3 +158,82 @@ def test_paths_the_workflow_makes_are_not_checked_at_dag_time(smoke):
         {"later": {"frames": "results/examples/not_yet", "test_frames": "results/x/*.obj"}},
     )
     assert rules.problems(changed) == []
+
+
+def _wave_frames(folder: Path, count: int, start: int = 0, resolution: int = 6) -> Path:
+    """Frames as Blender or PyVista export them: a plane with a moving wave, one OBJ each."""
+    folder.mkdir(parents=True, exist_ok=True)
+    plane = pv.Plane(i_resolution=resolution, j_resolution=resolution).triangulate()
+    for f in range(start, start + count):
+        frame = plane.copy()
+        frame.points[:, 2] = 0.1 * np.sin(3 * frame.points[:, 0] + f)
+        frame.save(str(folder / f"frame_{f:03d}.obj"))
+    return folder
+
+
+def test_test_frames_that_are_training_frames_are_refused_naming_both(smoke, tmp_path):
+    train = _wave_frames(tmp_path / "train", 6)
+    (tmp_path / "linked").symlink_to(train, target_is_directory=True)  # the same folder
+    copies = tmp_path / "copies"
+    copies.mkdir()
+    shutil.copy(train / "frame_002.obj", copies / "pose.obj")  # the same bytes
+    _wave_frames(copies, 1, start=40)  # and one real test frame
+    changed = _with_sequences(
+        smoke,
+        {
+            "same": {"frames": str(train), "test_frames": str(tmp_path / "linked" / "*3.obj")},
+            "copy": {"frames": str(train), "test_frames": str(copies)},
+        },
+    )
+    assert rules.problems(changed) == [
+        f"prt.user_sequences.same.test_frames: {tmp_path / 'linked' / 'frame_003.obj'} is "
+        f"the training frame {train / 'frame_003.obj'} (the same file); test frames must "
+        "be other frames than those of frames",
+        f"prt.user_sequences.copy.test_frames: {copies / 'pose.obj'} has the same content as "
+        f"the training frame {train / 'frame_002.obj'}; test frames must be other frames "
+        "than those of frames",
+    ]
+    fresh = _wave_frames(tmp_path / "fresh", 2, start=20)
+    ok = _with_sequences(smoke, {"ok": {"frames": str(train), "test_frames": str(fresh)}})
+    assert rules.problems(ok) == []
+
+
+def test_a_frame_with_another_vertex_count_fails_the_dry_run(smoke, tmp_path):
+    train = _wave_frames(tmp_path / "train", 4)
+    _wave_frames(tmp_path / "other", 1, start=4, resolution=5)
+    (tmp_path / "other" / "frame_004.obj").rename(train / "frame_004.obj")
+    test = _wave_frames(tmp_path / "test", 1, start=9, resolution=4)
+    changed = _with_sequences(smoke, {"w": {"frames": str(train)}})
+    assert rules.problems(changed) == [
+        f"prt.user_sequences.w: frame {train / 'frame_004.obj'} has 36 vertices but the rest "
+        f"frame {train / 'frame_000.obj'} has 49; every frame needs the same vertices "
+        "(export the animation as a mesh sequence, without modifiers that change the "
+        "topology)"
+    ]
+    (train / "frame_004.obj").unlink()
+    changed = _with_sequences(smoke, {"w": {"frames": str(train), "test_frames": str(test)}})
+    (problem,) = rules.problems(changed)
+    assert f"frame {test / 'frame_009.obj'} has 25 vertices" in problem
+
+
+def test_hidden_files_in_a_frames_folder_are_not_frames(smoke, tmp_path):
+    train = _wave_frames(tmp_path / "train", 3)
+    # What macOS leaves on a USB stick or in a zip: AppleDouble resource forks.
+    (train / "._frame_000.obj").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X")
+    (train / ".DS_Store").write_bytes(b"\x00\x00\x00\x01Bud1")
+    assert [p.name for p in mesh_files(str(train))] == [
+        "frame_000.obj",
+        "frame_001.obj",
+        "frame_002.obj",
+    ]
+    assert rules.problems(_with_sequences(smoke, {"w": {"frames": str(train)}})) == []
+
+
+def test_a_fifo_or_a_folder_named_as_a_frame_is_named_as_such(smoke, tmp_path):
+    fifo = tmp_path / "frame.obj"
+    os.mkfifo(fifo)
+    changed = _with_sequences(smoke, {"w": {"frames": str(fifo)}})
+    assert rules.problems(changed) == [
+        f"prt.user_sequences.w.frames = {str(fifo)!r}: is not a regular file (a FIFO, "
+        "socket or device)"
+    ]

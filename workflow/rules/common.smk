@@ -1,13 +1,11 @@
 # Config validation and the helpers every rules file uses; each method's own helpers are in
 # helpers/<method>.smk, what the rest of the workflow knows of it in its record
 # (src/neurender/<package>/method.py, listed in neurender.methods).
-import glob
-from pathlib import Path
-
 from snakemake.utils import validate
 
 import neurender.config
 import neurender.methods
+from neurender.user_paths import as_input, files_of, made_by_the_workflow
 
 # Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here,
 # then the rules between keys (neurender/config.py), naming the keys and values.
@@ -27,15 +25,12 @@ def section_keys(section, keys, top=(), **extra):
 
 def user_files(path):
     """The input files behind a user-given path: itself when the workflow makes it (under
-    ``results/``, e.g. the example assets), else every file of a folder or a glob, so that
-    editing any of them reruns the jobs that read them."""
-    if path.startswith("results/"):
-        return [path]
-    if Path(path).is_dir():
-        return sorted(str(p) for p in Path(path).iterdir() if p.is_file())
-    if glob.has_magic(path):
-        return sorted(glob.glob(path))
-    return [path]
+    ``results/``, e.g. the example assets), else every visible file of a folder or the
+    matches of a glob (:func:`neurender.user_paths.files_of`), so that editing any of them
+    reruns the jobs that read them."""
+    if made_by_the_workflow(path):
+        return [as_input(path)]
+    return [str(p) for p in files_of(path)]
 
 
 def report_inputs(kind):

@@ -171,7 +171,8 @@ def user_scenes_figure(shown: dict[str, Showcase], models: list[str], path: str)
             panels.append((_hwc(pred[gbuffers.NORMAL]), f"{model} (IoU {iou:.2f})"))
         for ax, (img, title) in zip(row, panels, strict=True):
             ax.imshow(np.clip(img, 0, 1))
-            ax.set_title(title, fontsize=7)
+            # The scene label is the user's text as written: "$x$" is not math to typeset.
+            ax.set_title(title, fontsize=7, parse_math=False, usetex=False)
             ax.axis("off")
     fig.tight_layout()
     save_figure(fig, path)

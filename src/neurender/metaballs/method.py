@@ -12,6 +12,7 @@ from neurender import checks, io
 from neurender.metaballs import GAN_VARIANTS, MIRRORINGS, VARIANTS
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.method import Method, ReportInputs, Rule, Units
+from neurender.user_paths import made_by_the_workflow
 
 STAGE = "metaballs"
 #: A training step with the discriminator costs this many steps without it (measured
@@ -27,7 +28,7 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         config["metaballs"]["width"], 32, "metaballs.width", "the pix2pix U-Net halves it to 1"
     )
     scenes = config["metaballs"]["user_scenes"]
-    if scenes and not checks.made_by_the_workflow(scenes):
+    if scenes and not made_by_the_workflow(scenes):
         try:
             read_user_scenes(scenes)
         except (OSError, ValueError) as err:

@@ -23,19 +23,29 @@ def _rows(mask: pd.Series) -> str:
 
 
 def read_user_scenes(path: str | Path) -> pd.DataFrame:
-    """The balls of a scenes CSV, checked: columns :data:`COLUMNS` (``scene`` as text,
-    the rest float64), in file order.
+    """The balls of a scenes CSV, checked: columns :data:`COLUMNS` (``scene`` the label
+    as written, text; the rest float64), in file order. Line numbers in messages count
+    the header as line 1 (a spreadsheet's row numbers).
 
     Raises:
         ValueError: naming the file and the lines: a missing column, no rows, a value
             that is not a finite number, a radius <= 0, a colour outside [0, 1], a centre
-            not in front of the camera (z <= 0).
-        OSError: a file that does not exist or does not parse as CSV.
+            not in front of the camera (z <= 0), a blank scene label.
+        OSError: a path that is not a regular file (missing, a directory, a FIFO) or
+            does not parse as CSV (a row longer than the header, an unclosed quote).
     """
     frame = io.read_csv(path, COLUMNS)
     if frame.empty:
         raise ValueError(f"metaball scenes {path} has no rows (one row per ball)")
-    out = pd.DataFrame({"scene": frame["scene"].astype(str)})
+    # Labels are text exactly as written (io.read_csv): 001, 1 and 1.0 are three scenes,
+    # NA and null are labels; a ball without one would silently join no scene.
+    blank = frame["scene"].str.strip() == ""
+    if blank.any():
+        raise ValueError(
+            f"metaball scenes {path}: a ball without a scene label on line(s) {_rows(blank)} "
+            "(the header is line 1); give every row its scene's label"
+        )
+    out = pd.DataFrame({"scene": frame["scene"]})
     for column in NUMBERS:
         values = pd.to_numeric(frame[column], errors="coerce").astype(float)
         bad = ~np.isfinite(values)

@@ -11,8 +11,11 @@ loading), ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` 
 function per rule of ``workflow/rules/ndr.smk``).
 """
 
+from pathlib import Path
+
 from neurender.asset_files import TRIMESH_SUFFIXES, VTK_SUFFIXES
 from neurender.ndr.variants import VARIANTS
+from neurender.user_paths import files_of, with_suffix
 
 #: Mesh files ``ndr.user_objects`` may name: trimesh's formats and PyVista's VTK ones.
 MESH_SUFFIXES = TRIMESH_SUFFIXES + VTK_SUFFIXES
@@ -33,6 +36,14 @@ TRAINED_ON = {"complex": "complex", "diffuse": "diffuse", "sunlit": "complex"}
 
 #: The variants trained and tested on the diffuse, fixed-illumination data.
 DIFFUSE_VARIANTS = tuple(name for name, v in VARIANTS.items() if v.data == "diffuse")
+
+
+def user_probe_files(folder: str | Path) -> list[Path]:
+    """The lat-long maps of ``ndr.user_probes_dir``: the folder's visible ``.exr`` files,
+    the suffix in any case (``B.EXR``), sorted by name; none when it is not a folder."""
+    if not Path(folder).is_dir():
+        return []
+    return with_suffix(files_of(str(folder)), (".exr",))
 
 
 def split_kind(split: str) -> tuple[str, str]:

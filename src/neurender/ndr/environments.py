@@ -23,6 +23,7 @@ import numpy as np
 import torch
 
 from neurender import lights, sh
+from neurender.ndr import user_probe_files
 
 SH_BANDS = 5
 SH_FEATURES = SH_BANDS**2 * 3
@@ -179,12 +180,13 @@ def sh_features(image: np.ndarray) -> np.ndarray:
 
 
 def user_probes(folder: str | Path) -> list[Path]:
-    """The ``*.exr`` lat-long maps in ``folder`` (sorted), each checked by
-    :func:`neurender.lights.load_probe` when used (:func:`check_user_probes` checks all)."""
+    """The lat-long maps in ``folder`` (:func:`neurender.ndr.user_probe_files`: ``.exr``
+    in any case, sorted), each checked by :func:`neurender.lights.load_probe` when used
+    (:func:`check_user_probes` checks all)."""
     path = Path(folder)
     if not path.is_dir():
         raise FileNotFoundError(f"ndr.user_probes_dir {path} is not a folder of EXR maps")
-    found = sorted(path.glob("*.exr"))
+    found = user_probe_files(path)
     if not found:
         raise FileNotFoundError(f"ndr.user_probes_dir {path} holds no *.exr lat-long maps")
     return found

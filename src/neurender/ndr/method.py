@@ -11,7 +11,8 @@ from typing import Any
 
 from neurender import asset_files, checks, io
 from neurender.method import Method, ReportInputs, Rule, Units, unet_work
-from neurender.ndr import DIFFUSE_VARIANTS, MESH_SUFFIXES
+from neurender.ndr import DIFFUSE_VARIANTS, MESH_SUFFIXES, user_probe_files
+from neurender.user_paths import file_problem, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
 STAGE = "NDR"
@@ -43,18 +44,18 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             f"ndr.samples.test = {ndr['samples']['test']}"
         )
     folder = ndr["user_probes_dir"]
-    if folder and not checks.made_by_the_workflow(folder) and not any(Path(folder).glob("*.exr")):
+    if folder and not made_by_the_workflow(folder) and not user_probe_files(folder):
         yield f"ndr.user_probes_dir = {folder!r}: expected a folder holding *.exr lat-long maps"
     for name, path in ndr["user_objects"].items():
-        if checks.made_by_the_workflow(path):
+        if made_by_the_workflow(path):
             continue
         if Path(path).suffix.lower() not in MESH_SUFFIXES:
             yield (
                 f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
                 f"({', '.join(MESH_SUFFIXES)})"
             )
-        elif not Path(path).is_file():
-            yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
+        elif file_problem(path):
+            yield f"ndr.user_objects entry {name!r}: file {path} {file_problem(path)}"
         else:
             yield from (
                 f"ndr.user_objects entry {name!r}: {problem}"

@@ -5,9 +5,13 @@ Snakefile can read it when it builds the DAG.
 """
 
 import glob
+import hashlib
 import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
+
+from neurender.mesh_header import vertex_count
+from neurender.user_paths import file_problem, files_of, with_suffix
 
 #: Built-in animated objects (:mod:`neurender.prt.objects`).
 OBJECTS = ("head", "cloth", "creature")
@@ -34,19 +38,68 @@ def _natural_key(path: Path) -> tuple:
 
 
 def mesh_files(paths: str | list[str]) -> list[Path]:
-    """The mesh files behind user paths (a folder, a glob or files), sorted by name with
-    numbers in order (``frame_2`` before ``frame_10``); other files are left out."""
+    """The mesh files behind user paths (a folder, a glob or files;
+    :func:`neurender.user_paths.files_of`: hidden files such as macOS's ``._frame.obj``
+    left out of folders), sorted by name with numbers in order (``frame_2`` before
+    ``frame_10``); files of other suffixes and paths that are not files are left out."""
     found = set()
     for path in [paths] if isinstance(paths, str) else paths:
-        p = Path(path)
-        if p.is_dir():
-            found.update(q for q in p.iterdir() if q.is_file())
-        elif glob.has_magic(str(path)):
-            found.update(Path(q) for q in glob.glob(str(path)))
-        elif p.is_file():
-            found.add(p)
-    suffixes = MESH_SUFFIXES + VTK_SUFFIXES
-    return sorted((p for p in found if p.suffix.lower() in suffixes), key=_natural_key)
+        found.update(p for p in files_of(str(path)) if p.is_file())
+    return sorted(with_suffix(found, MESH_SUFFIXES + VTK_SUFFIXES), key=_natural_key)
+
+
+def _digest(path: Path) -> str | None:
+    """SHA-256 of the file's bytes; ``None`` when it cannot be read (the job that reads
+    the frames names the file and why)."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def overlap_problems(key: str, frames: list[Path], test_frames: list[Path]) -> Iterator[str]:
+    """Test frames that are also training frames: the same file (after resolving links
+    and ``..``) or a file with the same bytes; the test score would be measured on
+    training data. One message per test frame, naming both files."""
+    by_path = {p.resolve(): p for p in frames}
+    by_bytes = {}
+    for p in frames:
+        by_bytes.setdefault(_digest(p), p)
+    by_bytes.pop(None, None)
+    for p in test_frames:
+        if p.resolve() in by_path:
+            yield (
+                f"{key}.test_frames: {p} is the training frame {by_path[p.resolve()]} "
+                "(the same file); test frames must be other frames than those of frames"
+            )
+        elif (twin := by_bytes.get(_digest(p))) is not None:
+            yield (
+                f"{key}.test_frames: {p} has the same content as the training frame "
+                f"{twin}; test frames must be other frames than those of frames"
+            )
+
+
+def vertex_count_problems(key: str, files: list[Path]) -> Iterator[str]:
+    """The first frame whose header declares another vertex count than the rest frame
+    (``files[0]``; :func:`neurender.mesh_header.vertex_count`: OBJ, PLY, OFF; other
+    formats are checked when the frames are read)."""
+    counts = [(p, vertex_count(p)) for p in files]
+    known = [(p, n) for p, n in counts if n is not None]
+    if not known or files[0] != known[0][0]:
+        return
+    rest, expected = known[0]
+    for p, n in known[1:]:
+        if n != expected:
+            yield (
+                f"{key}: frame {p} has {n} vertices but the rest frame {rest} has "
+                f"{expected}; every frame needs the same vertices (export the animation as "
+                "a mesh sequence, without modifiers that change the topology)"
+            )
+            return
 
 
 def held_out_frames(frames: int, test_fraction: float) -> int:
@@ -59,19 +112,29 @@ def user_sequence_problems(
     name: str, entry: dict, made_by_the_workflow: Callable[[str], bool]
 ) -> Iterator[str]:
     """Config problems of one ``prt.user_sequences`` entry: no mesh files behind ``frames``
-    or ``test_frames``, or too few frames for training, validation and testing. Paths the
-    workflow makes are checked by the jobs that read them."""
+    or ``test_frames`` (or a path that is not a regular file), test frames that are also
+    training frames, a frame whose header declares another vertex count, or too few
+    frames for training, validation and testing. Paths the workflow makes are checked by
+    the jobs that read them."""
     key = f"prt.user_sequences.{name}"
-    counts = {}
+    found = {}
     for field in ("frames", "test_frames"):
-        if entry[field] and not made_by_the_workflow(entry[field]):
-            counts[field] = len(mesh_files(entry[field]))
-            if not counts[field]:
+        path = entry[field]
+        if path and not made_by_the_workflow(path):
+            found[field] = mesh_files(path)
+            p = Path(path)
+            if not found[field] and p.exists() and not p.is_dir() and not glob.has_magic(path):
+                yield f"{key}.{field} = {path!r}: {file_problem(p) or 'is not a mesh file'}"
+            elif not found[field]:
                 yield (
-                    f"{key}.{field} = {entry[field]!r}: no mesh files found (expected a folder "
+                    f"{key}.{field} = {path!r}: no mesh files found (expected a folder "
                     f"or glob of {', '.join(MESH_SUFFIXES + VTK_SUFFIXES)} files)"
                 )
-    frames = counts.get("frames", 0)
+    if found.get("frames") and found.get("test_frames"):
+        yield from overlap_problems(key, found["frames"], found["test_frames"])
+    if found.get("frames"):
+        yield from vertex_count_problems(key, found["frames"] + found.get("test_frames", []))
+    frames = len(found.get("frames", []))
     if frames and not entry["test_frames"]:
         held = held_out_frames(frames, entry["test_fraction"])
         if frames - held < 2:

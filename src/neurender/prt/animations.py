@@ -89,12 +89,42 @@ def load_sequence(
     Args:
         frames, test_frames: folders, globs or files (:func:`neurender.prt.mesh_files`).
         what: the config entry, for messages.
+
+    Raises:
+        ValueError: as :func:`load_frames`, and for a test frame whose vertex positions
+            equal a training frame's, naming both files.
     """
     sequence = load_frames(mesh_files(frames), f"{what}.frames")
     if not test_frames:
         return sequence, None
     rest = (sequence.files[0], sequence.positions[0], sequence.faces)
-    return sequence, load_frames(mesh_files(test_frames), f"{what}.test_frames", rest)
+    tests = load_frames(mesh_files(test_frames), f"{what}.test_frames", rest)
+    # The config check compares files; this compares what was read (the same pose
+    # exported again, or in another format), so no test score is one on training data.
+    for positions, file in zip(tests.positions, tests.files, strict=True):
+        twin = same_pose(positions, sequence)
+        if twin is not None:
+            raise ValueError(
+                f"{what}.test_frames: frame {file} has the same vertex positions as the "
+                f"training frame {twin}; test frames must be other poses than those of frames"
+            )
+    return sequence, tests
+
+
+#: Positions closer than this fraction of the rest frame's bounding-box diagonal are the
+#: same pose: above the rounding of a text export (10 digits: 1e-10), far below motion.
+SAME_POSE = 1e-6
+
+
+def same_pose(positions: np.ndarray, frames: Frames) -> Path | None:
+    """The first of ``frames`` whose ``(V, 3)`` positions equal ``positions`` to within
+    :data:`SAME_POSE` of the rest frame's size, or ``None``."""
+    rest = frames.positions[0]
+    tolerance = SAME_POSE * float(np.linalg.norm(rest.max(axis=0) - rest.min(axis=0)))
+    for other, file in zip(frames.positions, frames.files, strict=True):
+        if np.abs(other - positions).max() <= tolerance:
+            return file
+    return None
 
 
 def held_out(frames: int, test_fraction: float) -> int:

@@ -6,13 +6,13 @@ time: imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from pathlib import Path
 from typing import Any
 
 from neurender import checks
 from neurender.lights import BUILTIN_PROBES
 from neurender.method import Method, ReportInputs, Rule, Units, unet_work
 from neurender.prt import EXPERIMENTS, OBJECTS, RESERVED, user_sequence_problems
+from neurender.user_paths import file_problem, made_by_the_workflow
 
 #: The plan's stages: the ground truth (data, transfer, figures) and the learned models.
 DATA, MODELS = "DeepPRT data", "DeepPRT models"
@@ -33,7 +33,7 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             f"(reserved: {', '.join(RESERVED)})"
         )
     for name, entry in sequences.items():
-        yield from user_sequence_problems(name, entry, checks.made_by_the_workflow)
+        yield from user_sequence_problems(name, entry, made_by_the_workflow)
     yield from checks.known(prt["probes"], BUILTIN_PROBES, prt["user_probes"], "prt.probes")
     if prt["light"] not in prt["probes"]:
         yield f"prt.light = {prt['light']!r}: expected one of prt.probes {prt['probes']}"
@@ -56,8 +56,8 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths"
     )
     for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
-        if not checks.made_by_the_workflow(path) and not Path(path).is_file():
-            yield f"prt user entry {name!r}: file {path} does not exist"
+        if not made_by_the_workflow(path) and file_problem(path):
+            yield f"prt user entry {name!r}: file {path} {file_problem(path)}"
 
 
 def _transfer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:

@@ -9,9 +9,10 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from neurender import asset_files, checks
+from neurender import asset_files
 from neurender.method import Method, ReportInputs, Rule, Units
 from neurender.simplify import CASES, VARIANTS
+from neurender.user_paths import file_problem, made_by_the_workflow
 
 STAGE = "simplification"
 
@@ -33,10 +34,10 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         if Path(path).suffix.lower() not in asset_files.TRIMESH_SUFFIXES:
             suffixes = ", ".join(asset_files.TRIMESH_SUFFIXES)
             yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
-        elif checks.made_by_the_workflow(path):
+        elif made_by_the_workflow(path):
             continue
-        elif not Path(path).is_file():
-            yield f"{key}.path = {path!r}: file does not exist"
+        elif file_problem(path):
+            yield f"{key}.path = {path!r}: file {file_problem(path)}"
         else:
             yield from (
                 f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)

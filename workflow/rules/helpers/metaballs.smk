@@ -59,4 +59,7 @@ def metaballs_viewer_params():
 
 def metaballs_user_scenes_file():
     """The user's scenes CSV (its job is only asked for when one is set)."""
-    return config["metaballs"]["user_scenes"] or "metaballs.user_scenes is not set"
+    return (
+        as_input(config["metaballs"]["user_scenes"])
+        or "metaballs.user_scenes is not set"
+    )

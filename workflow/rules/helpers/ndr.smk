@@ -73,7 +73,9 @@ def ndr_user_object_files(wildcards):
     a path under results/ is the workflow's output) and the user's maps."""
     files = {
         f"object_{name}": (
-            [path] if path.startswith("results/") else [path, *asset_inputs(path)]
+            [as_input(path)]
+            if made_by_the_workflow(path)
+            else [path, *asset_inputs(path)]
         )
         for name, path in config["ndr"]["user_objects"].items()
     }

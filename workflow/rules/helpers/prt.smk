@@ -125,7 +125,7 @@ def prt_viewer_params(wildcards):
 def prt_probe_source(wildcards):
     """A user probe file is an input of its job, so editing it reruns the job."""
     path = config["prt"]["user_probes"].get(wildcards.probe)
-    return {"source": path} if path else {}
+    return {"source": as_input(path)} if path else {}
 
 
 def prt_user_frames(name):
@@ -144,7 +144,7 @@ def prt_object_source(wildcards):
     if wildcards.object in PRT_USER_SEQUENCES:
         return prt_user_frames(wildcards.object)
     path = config["prt"]["user_meshes"].get(wildcards.object)
-    return {"source": path} if path else {}
+    return {"source": as_input(path)} if path else {}
 
 
 def prt_sequence_files(wildcards):

@@ -60,8 +60,9 @@ def simplify_prepare_inputs(wildcards):
     if entry is None:
         return {}
     path = entry["path"]
-    named = [] if path.startswith("results/") else asset_inputs(path)
-    return {"asset": path, "asset_files": named}
+    if made_by_the_workflow(path):
+        return {"asset": as_input(path), "asset_files": []}
+    return {"asset": path, "asset_files": asset_inputs(path)}
 
 
 def simplify_viewer_params(wildcards):
