@@ -35,6 +35,7 @@ STAGES = {
     "metaballs": "metaballs",
     "simplify": "simplification",
     "report": "report",
+    "provenance": "report",
     "example": "examples",
 }
 #: Rules whose work runs on a GPU when the config asks for GPUs (training, Mitsuba).

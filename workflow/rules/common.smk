@@ -53,3 +53,21 @@ def scheduler_resources(rule_name):
         "runtime": lambda wildcards, attempt: estimate(wildcards).runtime_min * attempt,
         "gpu": gpus,
     }
+
+
+def report_results(wildcards):
+    """Every table, figure and viewer the report shows (also the provenance's inputs)."""
+    return {
+        "tables": prt_report_tables()
+        + ndr_report_tables()
+        + metaballs_report_tables()
+        + simplify_report_tables(),
+        "figures": prt_report_figures()
+        + ndr_report_figures()
+        + metaballs_report_figures()
+        + simplify_report_figures(),
+        "viewers": prt_report_viewers()
+        + ndr_report_viewers()
+        + metaballs_report_viewers()
+        + simplify_report_viewers(),
+    }

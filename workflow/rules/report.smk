@@ -3,18 +3,8 @@
 
 rule report:
     input:
-        tables=prt_report_tables()
-        + ndr_report_tables()
-        + metaballs_report_tables()
-        + simplify_report_tables(),
-        figures=prt_report_figures()
-        + ndr_report_figures()
-        + metaballs_report_figures()
-        + simplify_report_figures(),
-        viewers=prt_report_viewers()
-        + ndr_report_viewers()
-        + metaballs_report_viewers()
-        + simplify_report_viewers(),
+        unpack(report_results),
+        provenance="results/provenance.json",
     output:
         html="results/report.html",
     log:

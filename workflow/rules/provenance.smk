@@ -1,0 +1,37 @@
+# What produced the results: results/provenance.json (neurender.provenance). It depends on
+# exactly what the report shows, so every invocation that recomputes a result rewrites it
+# and nothing but the report reruns because of it.
+import neurender.provenance
+
+#: When the invocation began (written by the onstart hook of a real run only).
+PROVENANCE_START = "results/logs/provenance/started.txt"
+
+
+onstart:
+    neurender.provenance.mark_start(PROVENANCE_START)
+
+
+rule provenance:
+    input:
+        unpack(report_results),
+    output:
+        json="results/provenance.json",
+    log:
+        "results/logs/provenance/provenance.log",
+    benchmark:
+        "results/benchmarks/provenance/provenance.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("provenance"),
+    params:
+        cfg={
+            "config": config,
+            "configfiles": [str(f) for f in workflow.configfiles],
+            "root": workflow.basedir,
+            "cores": workflow.cores,
+            "start_marker": PROVENANCE_START,
+        },
+    script:
+        "../scripts/provenance.py"
