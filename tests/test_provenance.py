@@ -95,13 +95,14 @@ def test_machine_counts_cpus_and_reports_the_thread_variables_that_are_set(monke
 
 
 def test_collect_holds_every_field_and_the_marked_start(repo):
-    marker = repo / "results" / "logs" / "started.txt"  # ignored by git: the tree stays clean
-    assert provenance.read_start(marker) is None
-    provenance.mark_start(marker)
+    marker = repo / "results" / "logs" / "started.json"  # ignored by git: the tree stays clean
+    assert provenance.read_start(marker) == {"started": None, "snakemake_cores": None}
+    provenance.mark_start(marker, 6)
     config = {"seed": 3, "prt": {"resolution": 32}}
-    record = provenance.collect(config, ["config/smoke.yaml"], repo, 2, marker)
+    record = provenance.collect(config, ["config/smoke.yaml"], repo, marker)
     assert set(record) == FIELDS and set(provenance.TIME_FIELDS) <= FIELDS
-    assert record["started"] == marker.read_text().strip()
+    assert record["started"] == json.loads(marker.read_text())["started"]
+    assert record["machine"]["snakemake_cores"] == 6
     assert record["started"] <= record["finished"]  # ISO 8601 in UTC sorts as time
     assert record["config"] == config and record["git"]["dirty"] is False
     out = repo / "results" / "provenance.json"

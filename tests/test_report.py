@@ -131,7 +131,7 @@ def test_the_report_names_the_commit_and_holds_the_provenance_collapsed(tmp_path
     from neurender import provenance
     from neurender.report.jobs import commit_label
 
-    record = provenance.collect({"seed": 7}, ["config/smoke.yaml"], tmp_path, 2, tmp_path / "s")
+    record = provenance.collect({"seed": 7}, ["config/smoke.yaml"], tmp_path, tmp_path / "s")
     record["git"] = {"commit": "0123456789abcdef" * 2 + "01234567", "dirty": True}
     label = commit_label(record["git"])
     assert label == "0123456789ab + uncommitted changes"

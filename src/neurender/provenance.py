@@ -9,11 +9,13 @@ lists them; none without it) and the run's times ``started`` and ``finished`` (I
 UTC; :data:`TIME_FIELDS`).
 
 The times: ``started`` is when the Snakemake invocation that computed the results began
-(the workflow's ``onstart`` hook writes it with :func:`mark_start`, in the main process of
-a real run only); ``finished`` is when the provenance job ran, once every table, figure
-and viewer of the report was done. The rule depends on exactly what the report shows, so
-it is rewritten by every invocation that recomputes any result and makes nothing but the
-report rerun. Without a start marker (a run with ``--no-hooks``) ``started`` is null.
+(the workflow's ``onstart`` hook writes it, with the invocation's ``--cores``, by
+:func:`mark_start`: in the main process of a real run only, never in a dry run or a
+cluster job); ``finished`` is when the provenance job ran, once every table, figure and
+viewer of the report was done. The rule depends on exactly what the report shows, so it
+is rewritten by every invocation that recomputes any result and makes nothing but the
+report rerun (the start and the cores are not its params: a rerun with other ``--cores``
+has nothing to do). Without a start marker (``--no-hooks``) both are null.
 """
 
 from __future__ import annotations
@@ -139,26 +141,30 @@ def gpus() -> list[dict[str, str]]:
     return [dict(zip(("name", "memory", "driver"), row, strict=False)) for row in rows]
 
 
-def mark_start(path: str | Path) -> None:
-    """Write the start of a run (:func:`now`) to ``path`` (the ``onstart`` hook)."""
+def mark_start(path: str | Path, cores: int | None) -> None:
+    """Write the start of a run (:func:`now`) and its Snakemake ``cores`` to ``path`` as
+    JSON (the ``onstart`` hook)."""
     with io.atomic_path(path) as tmp:
-        tmp.write_text(now() + "\n")
+        tmp.write_text(json.dumps({"started": now(), "snakemake_cores": cores}) + "\n")
 
 
-def read_start(path: str | Path) -> str | None:
-    """The start written by :func:`mark_start`, None when there is none."""
+def read_start(path: str | Path) -> dict[str, Any]:
+    """``{"started", "snakemake_cores"}`` as :func:`mark_start` wrote them at ``path``,
+    both None when there is no such file."""
     p = Path(path)
-    return p.read_text().strip() or None if p.is_file() else None
+    marked = json.loads(p.read_text()) if p.is_file() else {}
+    return {k: marked.get(k) for k in ("started", "snakemake_cores")}
 
 
 def collect(
     config: Mapping[str, Any],
     configfiles: Sequence[str],
     root: str | Path,
-    cores: int | None,
     start_marker: str | Path,
 ) -> dict[str, Any]:
-    """Every field of the module doc, ``finished`` being now."""
+    """Every field of the module doc (the checkout at ``root``, the start and the cores
+    from ``start_marker``), ``finished`` being now."""
+    start = read_start(start_marker)
     return {
         "config": dict(config),
         "configfiles": list(configfiles),
@@ -166,9 +172,9 @@ def collect(
         "packages": package_versions(),
         "python": platform.python_version(),
         "executable": sys.executable,
-        "machine": machine(cores),
+        "machine": machine(start["snakemake_cores"]),
         "gpus": gpus(),
-        "started": read_start(start_marker),
+        "started": start["started"],
         "finished": now(),
     }
 

@@ -3,12 +3,13 @@
 # and nothing but the report reruns because of it.
 import neurender.provenance
 
-#: When the invocation began (written by the onstart hook of a real run only).
-PROVENANCE_START = "results/logs/provenance/started.txt"
+#: When the invocation began and its --cores (written by the onstart hook of a real run
+#: only; not params, so that a rerun with other --cores has nothing to do).
+PROVENANCE_START = "results/logs/provenance/started.json"
 
 
 onstart:
-    neurender.provenance.mark_start(PROVENANCE_START)
+    neurender.provenance.mark_start(PROVENANCE_START, workflow.cores)
 
 
 rule provenance:
@@ -30,7 +31,6 @@ rule provenance:
             "config": config,
             "configfiles": [str(f) for f in workflow.configfiles],
             "root": workflow.basedir,
-            "cores": workflow.cores,
             "start_marker": PROVENANCE_START,
         },
     script:

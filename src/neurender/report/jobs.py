@@ -42,7 +42,6 @@ def provenance(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         params["config"],
         params["configfiles"],
         params["root"],
-        params["cores"],
         params["start_marker"],
     )
     provenance_record.write(outputs["json"], record)
