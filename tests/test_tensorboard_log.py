@@ -8,10 +8,6 @@ from torch.utils.data import TensorDataset
 
 from neurender import tensorboard_log, train
 
-EventAccumulator = pytest.importorskip(
-    "tensorboard.backend.event_processing.event_accumulator"
-).EventAccumulator
-
 
 def _problem():
     """Images in [0, 1]: the target is a fixed per-channel mix of the input."""
@@ -61,7 +57,9 @@ def _fit(tmp_path, name, epochs=4, loss=_loss, previews=PREVIEWS):
 
 
 def _events(folder):
-    acc = EventAccumulator(str(folder), size_guidance={"scalars": 0, "images": 0})
+    """TensorBoard's own reader of ``folder`` (the test is skipped without tensorboard)."""
+    reader = pytest.importorskip("tensorboard.backend.event_processing.event_accumulator")
+    acc = reader.EventAccumulator(str(folder), size_guidance={"scalars": 0, "images": 0})
     acc.Reload()
     return acc
 
