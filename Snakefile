@@ -19,6 +19,7 @@ include: "workflow/rules/ndr.smk"
 include: "workflow/rules/metaballs.smk"
 include: "workflow/rules/simplification.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/provenance.smk"
 
 
 rule all:

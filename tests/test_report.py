@@ -125,3 +125,24 @@ def test_the_summary_sets_every_deployed_network_beside_the_papers_times(tmp_pat
 def test_no_deployment_table_without_deployed_networks(tmp_path):
     report.build_report([], [], tmp_path / "r.html")
     assert 'id="deployment"' not in (tmp_path / "r.html").read_text()
+
+
+def test_the_report_names_the_commit_and_holds_the_provenance_collapsed(tmp_path):
+    from neurender import provenance
+    from neurender.report.jobs import commit_label
+
+    record = provenance.collect({"seed": 7}, ["config/smoke.yaml"], tmp_path, tmp_path / "s")
+    record["git"] = {"commit": "0123456789abcdef" * 2 + "01234567", "dirty": True}
+    label = commit_label(record["git"])
+    assert label == "0123456789ab + uncommitted changes"
+    assert commit_label({"commit": None, "dirty": None}) == "not a git checkout"
+    out = tmp_path / "r.html"
+    report.build_report([], [], out, run_info={"commit": label}, provenance=record)
+    html = out.read_text()
+    header, _, rest = html.partition('<details id="provenance">')
+    assert "commit: <code>0123456789ab + uncommitted changes</code>" in header
+    assert record["git"]["commit"] in rest and "with uncommitted changes" in rest
+    assert f"<th>torch</th><td>{record['packages']['torch']}</td>" in rest
+    assert "&#34;seed&#34;: 7" in rest or '"seed": 7' in rest
+    report.build_report([], [], out)
+    assert 'id="provenance"' not in out.read_text()

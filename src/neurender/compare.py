@@ -1,7 +1,11 @@
 """Compare two ``results/`` folders of the same config: are the deterministic outputs equal?
 
-Run as ``python -m neurender.compare RESULTS_A RESULTS_B``. Every CSV and EXR under
-``RESULTS_A`` is compared with its counterpart byte for byte. A CSV that differs is
+Run as ``python -m neurender.compare RESULTS_A RESULTS_B``. First the two runs'
+provenance (``provenance.json``, :mod:`neurender.provenance`) is compared: what made them
+differ (commit, dirty tree, package versions, config keys; never the run's times) is
+printed before any output is. Then every CSV and EXR under ``RESULTS_A`` (but the
+``benchmarks`` and ``tensorboard`` folders, which hold measurements of the machine) is
+compared with its counterpart byte for byte. A CSV that differs is
 compared again without its wall-clock measurements (columns and metrics named like
 seconds, milliseconds, rays per second, speed-ups or minutes, which no two runs share);
 it passes if that is all that differs. The exit status is 1 when any other difference, or
@@ -17,7 +21,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from neurender import io
+from neurender import io, provenance
+
+#: Folders under ``results/`` that no two runs share (timings, training event files).
+SKIPPED_FOLDERS = ("benchmarks", "tensorboard")
 
 #: Names of measurements that depend on the machine's speed at the moment of the run.
 TIMING = re.compile(
@@ -59,11 +66,22 @@ def compare_results(first: Path, second: Path) -> dict[str, list[str]]:
     """Every CSV and EXR under ``first`` by outcome (see :func:`compare_file`)."""
     outcome: dict[str, list[str]] = {}
     for path in sorted(first.rglob("*")):
-        if path.suffix not in (".csv", ".exr") or "benchmarks" in path.parts:
-            continue
         relative = path.relative_to(first)
+        if path.suffix not in (".csv", ".exr") or set(relative.parts) & set(SKIPPED_FOLDERS):
+            continue
         outcome.setdefault(compare_file(path, second / relative), []).append(str(relative))
     return outcome
+
+
+def provenance_lines(first: Path, second: Path) -> list[str]:
+    """What tells the two runs apart (:func:`neurender.provenance.differences`), or which
+    of them has no ``provenance.json``."""
+    files = [first / "provenance.json", second / "provenance.json"]
+    missing = [str(f) for f in files if not f.is_file()]
+    if missing:
+        return [f"no provenance file: {', '.join(missing)}"]
+    lines = provenance.differences(*(provenance.read(f) for f in files))
+    return lines or ["same commit, packages and config"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -71,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("first", type=Path)
     parser.add_argument("second", type=Path)
     args = parser.parse_args(argv)
+    print("provenance:")
+    for line in provenance_lines(args.first, args.second):
+        print(f"  {line}")
     outcome = compare_results(args.first, args.second)
     for kind in ("identical", "timing only", "differs", "missing"):
         files = outcome.get(kind, [])

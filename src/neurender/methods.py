@@ -17,8 +17,13 @@ from neurender.simplify.method import METHOD as SIMPLIFICATION
 
 METHODS: tuple[Method, ...] = (PRT, NDR, METABALLS, SIMPLIFICATION)
 
-#: The rules of no method: the example assets the own-assets config reads, and the report.
-WORKFLOW_RULES = {"example_assets": Rule("examples"), "report": Rule("report")}
+#: The rules of no method: the example assets the own-assets config reads, the report and
+#: the provenance record it shows.
+WORKFLOW_RULES = {
+    "example_assets": Rule("examples"),
+    "report": Rule("report"),
+    "provenance": Rule("report"),
+}
 #: The plan's stage of a rule that is registered nowhere.
 OTHER_STAGE = "other"
 

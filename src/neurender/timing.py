@@ -6,13 +6,14 @@ uncounted warm-up calls; on a GPU the clock stops only when the queued kernels a
 
 from __future__ import annotations
 
-import platform
 import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import torch
+
+from neurender.provenance import cpu_model
 
 
 def timed(
@@ -42,10 +43,4 @@ def hardware(threads: int, device: str | torch.device | None = None) -> str:
     on_gpu = torch.cuda.is_available() if device is None else torch.device(device).type == "cuda"
     if on_gpu:
         return f"{torch.cuda.get_device_name()} (CUDA)"
-    model = platform.processor() or "CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            model = next(line.split(":", 1)[1].strip() for line in f if "model name" in line)
-    except (OSError, StopIteration):
-        pass
-    return f"{model}, {threads} thread{'s' * (threads != 1)}"
+    return f"{cpu_model()}, {threads} thread{'s' * (threads != 1)}"

@@ -11,6 +11,8 @@
   them; it is removed once training completes.
 * Losses are logged as tidy CSV (epoch, split, metric, value); a NaN/inf training or
   validation loss stops training with an error naming the epoch and step.
+* Given a marker file, every epoch's scalars and validation previews also go to
+  TensorBoard event files beside it (:mod:`neurender.tensorboard_log`).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import logging
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -30,7 +33,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
-from neurender import io
+from neurender import io, tensorboard_log
 
 log = logging.getLogger(__name__)
 
@@ -295,6 +298,8 @@ def fit(
     extra_state: Mapping[str, Any] | None = None,
     adversary: Adversary | None = None,
     data_key: str = "",
+    tensorboard: str | Path | None = None,
+    previews: tensorboard_log.Previews | None = None,
 ) -> pd.DataFrame:
     """Train ``model`` with Adam and write its final checkpoint and loss log.
 
@@ -312,6 +317,9 @@ def fit(
             the checkpoint as ``adversary``.
         data_key: a fingerprint of the training data (e.g. :func:`neurender.io.checksum`
             of the input files); a resume file written for other data is not continued.
+        tensorboard: the marker file of the run's TensorBoard folder (its parent), None
+            for no event files; see :mod:`neurender.tensorboard_log`.
+        previews: how the validation previews and their metric are made (none if None).
 
     Returns:
         The loss history as a tidy data frame.
@@ -333,6 +341,7 @@ def fit(
     key = resume_key(config, model, data_key)
     resume_path = resume_path_for(checkpoint_path)
     load_resume(run, resume_path, key)
+    board = tensorboard_log.TrainingLog(tensorboard, previews, val_set, device, run.epoch + 1)
     val_loader = (
         DataLoader(val_set, batch_size=config.batch_size, shuffle=False)
         if val_set is not None
@@ -341,6 +350,7 @@ def fit(
     epochs = tqdm(range(run.epoch, config.epochs), desc="epochs", file=sys.stderr, mininterval=2)
     for epoch in epochs:
         run.epoch = epoch
+        started = time.perf_counter()
         # A generator per epoch: the order of an epoch does not depend on what came before.
         shuffle = torch.Generator().manual_seed(config.seed * 100_003 + epoch)
         loader = DataLoader(
@@ -355,11 +365,14 @@ def fit(
             run.best_val = score
             run.best_state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
         epochs.set_postfix({k: f"{v:.4g}" for k, v in row.items() if k.endswith("loss")})
+        lr = optimizer.param_groups[0]["lr"]
+        board.epoch(epoch + 1, row, lr, time.perf_counter() - started, model)
         run.epoch = epoch + 1
         _atomic_torch_save(run.state(key), resume_path)
         io.write_csv(log_path, history_frame(run.history))
     _save_final(run, config, extra_state, Path(checkpoint_path))
     io.write_csv(log_path, history_frame(run.history))
+    board.close()
     resume_path.unlink(missing_ok=True)
     if run.best_state is not None:
         model.load_state_dict(run.best_state)

@@ -13,7 +13,9 @@ def _train_params(variant: str) -> dict:
     return params | ({"ndf": 4, "gan_weight": 1.0} if gan else {"gan_weight": 0.0})
 
 
-def test_every_variant_trains_and_renders_g_buffers(tmp_path, write_split, split_files):
+def test_every_variant_trains_and_renders_g_buffers(
+    tmp_path, write_split, split_files, tensorboard_steps
+):
     write_split("train", 4)
     write_split("val", 2)
     files = split_files
@@ -22,8 +24,11 @@ def test_every_variant_trains_and_renders_g_buffers(tmp_path, write_split, split
         outputs = {
             "checkpoint": str(tmp_path / f"{variant}.pt"),
             "loss": str(tmp_path / f"{variant}.csv"),
+            "tensorboard": str(tmp_path / "tensorboard" / variant / "run.json"),
         }
         jobs.metaballs_train(files, outputs, _train_params(variant), 1)
+        logged = tensorboard_steps(tmp_path / "tensorboard" / variant)
+        assert logged["train/l1"] == logged["previews/ssim"] == logged["previews/error"] == [1]
         loss = io.read_csv(outputs["loss"], ["epoch", "split", "metric", "value"])
         assert {("train", "l1"), ("val", "l1")} <= set(zip(loss.split, loss.metric, strict=True))
         assert (("train", "gan") in set(zip(loss.split, loss.metric, strict=True))) == (

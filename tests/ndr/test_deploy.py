@@ -1,5 +1,7 @@
 """The NDR deployment job: each trained variant as an ONNX file that computes its network."""
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -73,6 +75,7 @@ def deployed(tmp_path_factory):
             checkpoint = str(tmp / f"{variant}.pt")
             train_files = _split_inputs("train", train) | _split_inputs("val", val)
             outputs = {"checkpoint": checkpoint, "loss": str(tmp / f"{variant}_loss.csv")}
+            outputs["tensorboard"] = str(tmp / "tensorboard" / variant / "run.json")
             jobs.ndr_train(train_files, outputs, params, 1)
             inputs[f"checkpoint_{variant}"] = checkpoint
     outputs = {
@@ -82,6 +85,15 @@ def deployed(tmp_path_factory):
     jobs.ndr_deploy(inputs, outputs, {"variants": list(DEPLOYED)}, 1)
     fresh = NDRDataset.from_files(_write_split(tmp, "fresh", 3, 4), 0)
     return inputs, outputs, fresh
+
+
+def test_every_variant_logs_its_curves_and_previews(deployed, tensorboard_steps):
+    inputs, _, _ = deployed
+    for variant in DEPLOYED:
+        folder = Path(inputs[f"checkpoint_{variant}"]).parent / "tensorboard" / variant
+        logged = tensorboard_steps(folder)
+        assert logged["val/loss"] == logged["previews/dssim"] == [1], variant
+        assert logged["previews/prediction"] == logged["previews/reference"] == [1], variant
 
 
 def test_one_row_per_variant_with_its_file_size_and_positive_times(deployed):

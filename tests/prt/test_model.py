@@ -86,7 +86,7 @@ def test_transfer_network_decodes_the_network_of_normalised_inputs(residual):
     np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-5)
 
 
-def test_trained_deepprt_exports_and_both_engines_agree(tmp_path):
+def test_trained_deepprt_exports_and_both_engines_agree(tmp_path, tensorboard_steps):
     rng = np.random.default_rng(5)
     w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
     train = _split(rng.uniform(0, 1, (6, 2)), rng, affine=(w, b))
@@ -94,7 +94,11 @@ def test_trained_deepprt_exports_and_both_engines_agree(tmp_path):
     cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
     cfg |= {"lr": 1e-3, "residual_targets": True, "device": "cpu"}
     checkpoint, onnx_file = tmp_path / "net.pt", tmp_path / "net.onnx"
-    train_deepprt(train, val, "glossy", cfg, 1, str(checkpoint), str(tmp_path / "loss.csv"))
+    board = tmp_path / "tensorboard" / "run.json"
+    loss_csv = str(tmp_path / "loss.csv")
+    train_deepprt(train, val, "glossy", cfg, 1, str(checkpoint), loss_csv, tensorboard=str(board))
+    logged = tensorboard_steps(board.parent)
+    assert logged["val/loss"] == logged["previews/prediction"] == logged["lr"] == [1]
     export_deepprt(checkpoint, val, onnx_file)
     net = DeepPRT(checkpoint, onnx_file, device="cpu")
     assert net.engine == "onnxruntime" and set(net.engines) == {"onnxruntime", "pytorch"}

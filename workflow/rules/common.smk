@@ -60,3 +60,8 @@ def scheduler_resources(rule_name):
         "runtime": lambda wildcards, attempt: estimate(wildcards).runtime_min * attempt,
         "gpu": gpus,
     }
+
+
+def report_results(wildcards):
+    """Every table, figure and viewer the report shows (also the provenance's inputs)."""
+    return {kind: report_inputs(kind) for kind in ("tables", "figures", "viewers")}

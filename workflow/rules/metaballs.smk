@@ -68,6 +68,7 @@ rule metaballs_train:
     output:
         checkpoint="results/metaballs/{variant}.pt",
         loss="results/metaballs/{variant}_loss.csv",
+        tensorboard="results/tensorboard/metaballs/{variant}/run.json",
     log:
         "results/logs/metaballs_train/{variant}.log",
     benchmark:

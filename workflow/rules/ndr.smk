@@ -68,6 +68,7 @@ rule ndr_train:
     output:
         checkpoint="results/ndr/models/{variant}.pt",
         loss="results/ndr/models/{variant}_loss.csv",
+        tensorboard="results/tensorboard/ndr/{variant}/run.json",
     log:
         "results/logs/ndr_train/{variant}.log",
     benchmark:

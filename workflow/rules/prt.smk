@@ -244,6 +244,7 @@ rule prt_train:
         checkpoint="results/prt/{object}/deepprt_{material}.pt",
         onnx="results/prt/{object}/deepprt_{material}.onnx",
         loss="results/prt/{object}/deepprt_{material}_loss.csv",
+        tensorboard="results/tensorboard/prt/{object}_{material}/run.json",
     log:
         "results/logs/prt_train/{object}_{material}.log",
     benchmark:

@@ -3,9 +3,8 @@
 
 rule report:
     input:
-        tables=report_inputs("tables"),
-        figures=report_inputs("figures"),
-        viewers=report_inputs("viewers"),
+        unpack(report_results),
+        provenance="results/provenance.json",
     output:
         html="results/report.html",
     log:

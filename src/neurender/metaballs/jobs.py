@@ -63,7 +63,13 @@ def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> 
     """One variant's generator, trained on the train split and validated on val."""
     data_key = io.checksum(list(inputs.values()))
     training.train_generator(
-        inputs, params, threads, outputs["checkpoint"], outputs["loss"], data_key
+        inputs,
+        params,
+        threads,
+        outputs["checkpoint"],
+        outputs["loss"],
+        data_key,
+        outputs.get("tensorboard"),
     )
 
 

@@ -13,8 +13,10 @@ import torch
 from torch import nn
 
 from neurender import io, train
+from neurender.metaballs import gbuffers
 from neurender.metaballs.dataset import ABDataset
 from neurender.metaballs.model import build_discriminator, build_generator
+from neurender.tensorboard_log import Previews, ssim_metric
 
 SPLIT_FILES = ("dir", "manifest", "balls")
 
@@ -52,6 +54,14 @@ def discriminator_loss(module: nn.Module, batch, fake: torch.Tensor):
     return loss, {}
 
 
+def preview_images(model: nn.Module, batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """Predicted and ray-marched colour buffers in [0, 1] (the network works in [-1, 1]),
+    for the TensorBoard previews (their metric: SSIM, as the evaluation scores buffers)."""
+    x, y = batch
+    colour = gbuffers.COLOUR
+    return (model(x)[:, colour] + 1) / 2, (y[:, colour] + 1) / 2
+
+
 def split_dataset(files: Mapping[str, str], split: str, variant: str, flips: bool) -> ABDataset:
     """The :class:`ABDataset` of ``files``' ``{split}_dir``, ``_manifest`` and ``_balls``
     (on disk when larger than :data:`neurender.io.IN_MEMORY_LIMIT_BYTES`)."""
@@ -70,10 +80,11 @@ def train_generator(
     checkpoint: str,
     log_csv: str,
     data_key: str = "",
+    tensorboard: str | None = None,
 ) -> None:
     """Train one variant's generator (and, when ``gan_weight > 0``, its PatchGAN); write
     its checkpoint and its tidy loss log (``data_key``: the training data's fingerprint,
-    see :func:`neurender.train.fit`).
+    ``tensorboard``: the marker of its event folder; see :func:`neurender.train.fit`).
 
     Args:
         files: ``train_dir, train_manifest, train_balls`` and the same for ``val``.
@@ -102,4 +113,6 @@ def train_generator(
         if discriminator is None
         else train.Adversary(discriminator, discriminator_loss),
         data_key=data_key,
+        tensorboard=tensorboard,
+        previews=Previews(preview_images, ssim_metric),
     )

@@ -89,6 +89,7 @@ def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         outputs["checkpoint"],
         outputs["loss"],
         io.checksum(list(inputs.values())),
+        outputs.get("tensorboard"),
     )
 
 

@@ -26,6 +26,7 @@ from neurender.ndr.model import (
 )
 from neurender.ndr.variants import VARIANTS, Variant
 from neurender.nn.pix2pix import NLayerDiscriminator, init_weights
+from neurender.tensorboard_log import Previews, dssim_metric
 
 Batch = dict[str, torch.Tensor]
 
@@ -63,6 +64,13 @@ def pix2pix_losses(variant: Variant, cfg: Mapping[str, Any]) -> tuple[Callable, 
     return generator_loss, train.Adversary(discriminator, discriminator_loss)
 
 
+def preview_images(model: NDRModel, batch: Batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """Predicted and true tone-mapped ``I_R`` in [0, 1), background zeroed, for the
+    TensorBoard previews (their metric: DSSIM, the stage's loss)."""
+    truth = reinhard(compose(batch["I_D"], batch["I_S"], batch)["I_R"])
+    return reinhard(model(batch)["I_R"]) * batch["mask"], truth * batch["mask"]
+
+
 def train_variant(
     name: str,
     train_files: dict[str, str],
@@ -72,10 +80,11 @@ def train_variant(
     checkpoint: str,
     log_csv: str,
     data_key: str = "",
+    tensorboard: str | None = None,
 ) -> None:
     """Train variant ``name`` on a split's ``train_files`` and ``val_files`` (each ``dir``,
-    ``manifest``, ``lighting``); ``data_key`` fingerprints them (see
-    :func:`neurender.train.fit`).
+    ``manifest``, ``lighting``); ``data_key`` fingerprints them, ``tensorboard`` is the
+    marker of the run's event folder (see :func:`neurender.train.fit`).
 
     ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
     ``lr_schedule``, ``epochs`` (the same for every variant), the variant's
@@ -107,4 +116,6 @@ def train_variant(
         extra_state={"variant": name, **arch},
         adversary=adversary,
         data_key=data_key,
+        tensorboard=tensorboard,
+        previews=Previews(preview_images, dssim_metric),
     )

@@ -250,7 +250,15 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     train, val = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
     material, data_key = params["material"], io.checksum(list(inputs.values()))
     train_deepprt(
-        train, val, material, params, threads, outputs["checkpoint"], outputs["loss"], data_key
+        train,
+        val,
+        material,
+        params,
+        threads,
+        outputs["checkpoint"],
+        outputs["loss"],
+        data_key,
+        outputs.get("tensorboard"),
     )
     export_deepprt(outputs["checkpoint"], val, outputs["onnx"])
 

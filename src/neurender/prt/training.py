@@ -12,6 +12,7 @@ from neurender import train
 from neurender.nn.unet import ResUNet, count_parameters
 from neurender.prt.frames import Split
 from neurender.prt.model import Normalisation, build_network
+from neurender.tensorboard_log import Previews
 
 log = logging.getLogger(__name__)
 
@@ -19,6 +20,14 @@ log = logging.getLogger(__name__)
 def _l1_loss(model: torch.nn.Module, batch) -> tuple[torch.Tensor, dict[str, float]]:
     x, y = batch
     return torch.nn.functional.l1_loss(model(x), y), {}
+
+
+def _previews(model: torch.nn.Module, batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """The first three transfer channels in network units (each spans about [0, 1]),
+    predicted and true. The stage's metric, SSIM of rendered images, needs the evaluation's
+    light and camera; its validation L1 is logged as ``val/loss``."""
+    x, y = batch
+    return model(x)[:, :3], y[:, :3]
 
 
 def train_deepprt(
@@ -30,9 +39,11 @@ def train_deepprt(
     checkpoint: str,
     log_csv: str,
     data_key: str = "",
+    tensorboard: str | None = None,
 ) -> ResUNet:
     """Train one DeepPRT network (one object, one material) with the shared loop
-    (``data_key``: the training data's fingerprint, see :func:`neurender.train.fit`)."""
+    (``data_key``: the training data's fingerprint; ``tensorboard``: the marker of its
+    event folder; see :func:`neurender.train.fit`)."""
     torch.manual_seed(cfg["seed"])
     norm = Normalisation.fit(train_split, material, residual=cfg["residual_targets"])
     make = lambda s: TensorDataset(  # noqa: E731
@@ -63,6 +74,8 @@ def train_deepprt(
             "parameters": count_parameters(model),
         },
         data_key=data_key,
+        tensorboard=tensorboard,
+        previews=Previews(_previews),
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
     return model

@@ -22,9 +22,10 @@ import datetime
 import html
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import jinja2
 import pandas as pd
@@ -281,6 +282,7 @@ def build_report(
     title: str = "neurender report",
     run_info: dict[str, str] | None = None,
     viewers: Sequence[str | Path] = (),
+    provenance: Mapping[str, Any] | None = None,
 ) -> None:
     """Write the HTML report.
 
@@ -292,6 +294,7 @@ def build_report(
         output: the ``.html`` file.
         run_info: key -> value pairs shown at the top (config file, seed, ...).
         viewers: viewer files (:mod:`neurender.viewer_data`) under ``results/<method>/``.
+        provenance: the run's :mod:`neurender.provenance` record, shown collapsed.
     """
     sections = []
     for index, section in enumerate(methods.METHODS):
@@ -321,6 +324,7 @@ def build_report(
         run_info=run_info or {},
         viewer_code=code,
         deployment=deployment_summary([Path(t) for t in tables]),
+        provenance=provenance,
         generated=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
     with io.atomic_path(output) as tmp:

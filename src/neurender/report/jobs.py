@@ -1,13 +1,21 @@
-"""The report's job, for the rule of ``workflow/rules/report.smk``."""
+"""The report stage's jobs, for the rules of ``workflow/rules/report.smk`` and
+``workflow/rules/provenance.smk``."""
 
 from __future__ import annotations
 
+from neurender import provenance as provenance_record
 from neurender.report.build import build_report
 
 
 def report(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every table, figure and viewer of the run in one self-contained HTML file."""
-    run_info = {"config": ", ".join(params["configfiles"]), "seed": str(params["seed"])}
+    """Every table, figure and viewer of the run in one self-contained HTML file, headed by
+    the commit and with the run's ``provenance`` in a collapsed section."""
+    record = provenance_record.read(inputs["provenance"])
+    run_info = {
+        "config": ", ".join(params["configfiles"]),
+        "seed": str(params["seed"]),
+        "commit": commit_label(record["git"]),
+    }
     build_report(
         inputs["tables"],
         inputs["figures"],
@@ -15,4 +23,25 @@ def report(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         params["title"],
         run_info,
         viewers=inputs.get("viewers", []),
+        provenance=record,
     )
+
+
+def commit_label(git: dict) -> str:
+    """``<12 hex digits>``, with ``+ uncommitted changes`` when dirty; ``not a git
+    checkout`` without a commit."""
+    if git.get("commit") is None:
+        return "not a git checkout"
+    return git["commit"][:12] + (" + uncommitted changes" if git.get("dirty") else "")
+
+
+def provenance(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """``results/provenance.json`` (:mod:`neurender.provenance`); ``inputs`` (the report's
+    results) are not read: they order this job after every one of them."""
+    record = provenance_record.collect(
+        params["config"],
+        params["configfiles"],
+        params["root"],
+        params["start_marker"],
+    )
+    provenance_record.write(outputs["json"], record)
