@@ -95,8 +95,8 @@ def _prt_problems(config: Mapping) -> Iterator[str]:
     yield from _ordered(config, "prt", "linear_range")
     yield from _halvable(prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths")
     for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
-        if not made_by_the_workflow(path) and not Path(path).is_file():
-            yield f"prt user entry {name!r}: file {path} does not exist"
+        if not made_by_the_workflow(path) and (problem := asset_files.not_a_file(path)):
+            yield f"prt user entry {name!r}: file {path} {problem}"
 
 
 def _ndr_problems(config: Mapping) -> Iterator[str]:
@@ -134,8 +134,8 @@ def _ndr_problems(config: Mapping) -> Iterator[str]:
                 f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
                 f"({', '.join(NDR_MESH_SUFFIXES)})"
             )
-        elif not Path(path).is_file():
-            yield f"ndr.user_objects entry {name!r}: file {path} does not exist"
+        elif problem := asset_files.not_a_file(path):
+            yield f"ndr.user_objects entry {name!r}: file {path} {problem}"
         else:
             yield from (
                 f"ndr.user_objects entry {name!r}: {problem}"
@@ -177,8 +177,8 @@ def _simplify_problems(config: Mapping) -> Iterator[str]:
             yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
         elif made_by_the_workflow(path):
             continue
-        elif not Path(path).is_file():
-            yield f"{key}.path = {path!r}: file does not exist"
+        elif problem := asset_files.not_a_file(path):
+            yield f"{key}.path = {path!r}: file {problem}"
         else:
             yield from (
                 f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)

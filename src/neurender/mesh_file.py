@@ -266,7 +266,7 @@ def _trimesh_parts(path: Path, materials: bool) -> list[trimesh.Trimesh]:
         scene = trimesh.load(path, force="scene", process=False, **kwargs)
         for geometry in scene.geometry.values():
             if isinstance(geometry, trimesh.Trimesh):
-                _check_indices(path, geometry.faces, len(geometry.vertices))
+                _check_arrays(path, geometry.vertices, geometry.faces)
         geometries = scene.dump(concatenate=False) if len(scene.geometry) else []
     except AssetFileError:
         raise
@@ -395,9 +395,15 @@ def _check_obj_indices(path: Path) -> None:
             )
 
 
-def _check_indices(path: Path, faces: np.ndarray, count: int) -> None:
-    """Refuse faces ``(m, 3)`` with an index outside ``0 .. count - 1``."""
-    faces = np.asarray(faces)
+def _check_arrays(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
+    """Refuse vertices that are not ``(n, 3)`` and faces ``(m, 3)`` with an index outside
+    ``0 .. n - 1``."""
+    vertices, faces = np.asarray(vertices), np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise AssetFileError(
+            f"{path}: vertices of shape {vertices.shape}; expected 3 coordinates each"
+        )
+    count = len(vertices)
     if faces.size == 0:
         return
     if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
@@ -429,7 +435,7 @@ def _vtk_part(path: Path) -> trimesh.Trimesh:
     faces = surface.faces.reshape(-1, 4)[:, 1:] if surface.n_cells else np.zeros((0, 3), int)
     if not len(faces):
         raise AssetFileError(f"{path}: no faces; found {surface.n_points} points")
-    _check_indices(path, faces, surface.n_points)
+    _check_arrays(path, surface.points, faces)
     colours = next(
         (
             np.asarray(surface.point_data[k])
