@@ -239,8 +239,10 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     update_config(cfg, yaml.safe_load((root / "config/smoke.yaml").read_text()))
     validate(cfg, str(root / "workflow/schemas/config.schema.yaml"))
     (tmp_path / "a.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "folder.obj").mkdir()
     cfg["ndr"]["user_objects"] = {
         "gone": str(tmp_path / "gone.glb"),
+        "folder": str(tmp_path / "folder.obj"),
         "text": str(tmp_path / "notes.txt"),
         "obj": str(tmp_path / "a.obj"),
         "made": "results/examples/vase.ply",
@@ -248,6 +250,7 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     found = [p for p in rules.problems(cfg) if "user_objects" in p]
     assert found == [
         f"ndr.user_objects entry 'gone': file {tmp_path / 'gone.glb'} does not exist",
+        f"ndr.user_objects entry 'folder': file {tmp_path / 'folder.obj'} is a folder, not a file",
         f"ndr.user_objects entry 'text': {tmp_path / 'notes.txt'} is not a mesh file NDR reads "
         f"({', '.join(MESH_SUFFIXES)})",
         f"ndr.user_objects entry 'obj': {tmp_path / 'a.obj'} names a.mtl ({tmp_path / 'a.mtl'}), "
