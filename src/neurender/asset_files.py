@@ -217,8 +217,9 @@ def asset_inputs(path: str) -> list[str]:
     return sorted({str(target) for _, target in references(path)})
 
 
-def check(path: str | Path, suffixes: tuple[str, ...]) -> Path:
-    """``path`` once it has one of ``suffixes``, exists, and every file it names exists.
+def check(path: str | Path, suffixes: tuple[str, ...], named: bool = True) -> Path:
+    """``path`` once it has one of ``suffixes``, is a file, and (``named``) every file it
+    names is one.
 
     Raises:
         AssetFileError: naming the file: an unknown suffix, no such file (or a folder, a
@@ -236,7 +237,7 @@ def check(path: str | Path, suffixes: tuple[str, ...]) -> Path:
         raise AssetFileError(f"{path}: no such file")
     if problem:
         raise AssetFileError(f"{path}: {problem}; expected a mesh file")
-    absent = missing(path)
+    absent = missing(path) if named else []
     if absent:
         raise AssetFileError(f"{path}: " + "; ".join(absent))
     return path

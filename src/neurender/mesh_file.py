@@ -118,30 +118,13 @@ def read(
             file, no faces, face indices out of range, non-finite vertices, a degenerate
             bounding box, a texture without texture coordinates.
     """
-    path = Path(path)
-    if materials:
-        asset_files.check(path, suffixes)
-    else:
-        _check_file(path, suffixes)
+    path = asset_files.check(path, suffixes, named=materials)
     if path.suffix.lower() in asset_files.VTK_SUFFIXES:
         parts = [_vtk_part(path)]
     else:
         parts = _trimesh_parts(path, materials)
     _check_surface(path, parts)
     return MeshFile(path, parts)
-
-
-def _check_file(path: Path, suffixes: tuple[str, ...]) -> None:
-    """:func:`asset_files.check` without the files the mesh names."""
-    if path.suffix.lower() not in suffixes:
-        asset_files.check(path, suffixes)  # raises naming the suffix
-    problem = asset_files.not_a_file(path)
-    if problem:
-        raise AssetFileError(
-            f"{path}: no such file"
-            if problem == "does not exist"
-            else f"{path}: {problem}; expected a mesh file"
-        )
 
 
 def image_values(image: Image.Image, dtype=np.float32) -> np.ndarray:
@@ -234,8 +217,8 @@ class _Files(trimesh.resolvers.Resolver):
     def keys(self):
         return iter(())
 
-    def namespaced(self, namespace: str) -> _Files:
-        return _Files(asset_files.named_file(self.referrer, namespace) / self.referrer.name)
+    def namespaced(self, namespace: str):
+        raise NotImplementedError("the formats read here name files, not folders")
 
     def write(self, name: str, data) -> None:
         raise NotImplementedError("reading only")
