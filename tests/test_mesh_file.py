@@ -367,6 +367,21 @@ def test_ply_face_indices_out_of_range_are_refused_naming_counts(tmp_path, metho
 
 
 @pytest.mark.parametrize("method", sorted(LOADERS))
+def test_glb_face_indices_past_the_vertices_are_refused(tmp_path, method):
+    """As a corrupt (e.g. Draco-decoded) GLB gives them; trimesh writes them as told."""
+    sphere = trimesh.creation.icosphere(2)
+    faces = sphere.faces.copy()
+    faces[[3, 9], 0] = 5000
+    trimesh.Trimesh(sphere.vertices, faces, process=False).export(tmp_path / "ball.glb")
+    with pytest.raises(AssetFileError) as err:
+        LOADERS[method](tmp_path / "ball.glb")
+    assert str(err.value) == (
+        f"{tmp_path / 'ball.glb'}: 2 face indices out of range for its 162 vertices: "
+        "0 negative, 2 at or past 162 (e.g. 5000)"
+    )
+
+
+@pytest.mark.parametrize("method", sorted(LOADERS))
 def test_obj_relative_and_out_of_range_indices_are_refused(tmp_path, method):
     # "f 1 2 -1" means vertex 3 here, but trimesh reads it as the file's last vertex (4).
     path = tmp_path / "rel.obj"
