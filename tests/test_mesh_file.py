@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 import pyvista as pv
 import trimesh
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 from PIL import Image
 
 from neurender import asset_files, mesh_file
@@ -460,65 +458,3 @@ def test_vtk_face_indices_are_checked(tmp_path):
             match=rf"bad\.vtk: 1 face indices out of range for its {sphere.n_points} vertices",
         ):
             LOADERS[method](tmp_path / "bad.vtk")
-
-
-# Property-based: whatever bytes or edits of a valid file, a clean error naming the file or
-# a valid mesh, never another exception.
-
-_SPHERE = trimesh.creation.icosphere(1)
-_OBJ_TEXT = trimesh.exchange.obj.export_obj(_SPHERE)
-_PLY_TEXT = trimesh.exchange.ply.export_ply(_SPHERE, encoding="ascii").decode()
-_ALPHABET = "0123456789-+.eE /\nvtfn#\\abc"
-
-
-def _assert_clean(path):
-    try:
-        mesh = mesh_file.read(path)
-    except AssetFileError as err:
-        assert str(path) in str(err)
-        return
-    for part in mesh.parts:
-        faces = np.asarray(part.faces)
-        assert faces.ndim == 2 and faces.shape[1] == 3 and len(faces)
-        assert faces.min() >= 0 and faces.max() < len(part.vertices)
-        assert np.isfinite(np.asarray(part.vertices, np.float64)).all()
-
-
-@st.composite
-def _edited(draw, text: str) -> str:
-    for _ in range(draw(st.integers(1, 4))):
-        start = draw(st.integers(0, len(text)))
-        end = draw(st.integers(start, min(len(text), start + 12)))
-        text = text[:start] + draw(st.text(_ALPHABET, max_size=12)) + text[end:]
-    return text
-
-
-_FUZZ = settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
-
-
-@_FUZZ
-@given(
-    data=st.binary(max_size=300), suffix=st.sampled_from([".obj", ".ply", ".glb", ".off", ".stl"])
-)
-def test_fuzz_random_bytes_give_a_clean_error_or_a_valid_mesh(tmp_path, data, suffix):
-    path = tmp_path / f"random{suffix}"
-    path.write_bytes(data)
-    _assert_clean(path)
-
-
-@_FUZZ
-@given(text=_edited(_OBJ_TEXT))
-def test_fuzz_edited_obj_gives_a_clean_error_or_a_valid_mesh(tmp_path, text):
-    path = tmp_path / "edited.obj"
-    path.write_text(text)
-    _assert_clean(path)
-
-
-@_FUZZ
-@given(text=_edited(_PLY_TEXT))
-def test_fuzz_edited_ply_gives_a_clean_error_or_a_valid_mesh(tmp_path, text):
-    path = tmp_path / "edited.ply"
-    path.write_text(text)
-    _assert_clean(path)
