@@ -41,37 +41,6 @@ def _edited(draw, text: str) -> str:
     return text
 
 
-_FUZZ = settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
-
-
-@_FUZZ
-@given(
-    data=st.binary(max_size=300), suffix=st.sampled_from([".obj", ".ply", ".glb", ".off", ".stl"])
-)
-def test_fuzz_random_bytes_give_a_clean_error_or_a_valid_mesh(tmp_path, data, suffix):
-    path = tmp_path / f"random{suffix}"
-    path.write_bytes(data)
-    _assert_clean(path)
-
-
-@_FUZZ
-@given(text=_edited(_OBJ_TEXT))
-def test_fuzz_edited_obj_gives_a_clean_error_or_a_valid_mesh(tmp_path, text):
-    path = tmp_path / "edited.obj"
-    path.write_text(text)
-    _assert_clean(path)
-
-
-@_FUZZ
-@given(text=_edited(_PLY_TEXT))
-def test_fuzz_edited_ply_gives_a_clean_error_or_a_valid_mesh(tmp_path, text):
-    path = tmp_path / "edited.ply"
-    path.write_text(text)
-    _assert_clean(path)
-
-
 _TEXTURED = trimesh.creation.box()
 _TEXTURED.visual = trimesh.visual.TextureVisuals(
     uv=np.random.default_rng(0).uniform(size=(8, 2)),
@@ -90,9 +59,22 @@ def _edited_bytes(draw, data: bytes) -> bytes:
     return data
 
 
-@_FUZZ
-@given(data=_edited_bytes(_GLB))
-def test_fuzz_edited_textured_glb_gives_a_clean_error_or_a_valid_mesh(tmp_path, data):
-    path = tmp_path / "edited.glb"
-    path.write_bytes(data)
+#: ``(suffix, content)``: random bytes under any suffix, or small edits of a valid OBJ,
+#: ASCII PLY and textured GLB.
+_FILES = st.one_of(
+    st.tuples(st.sampled_from([".obj", ".ply", ".glb", ".off", ".stl"]), st.binary(max_size=300)),
+    st.tuples(st.just(".obj"), _edited(_OBJ_TEXT).map(str.encode)),
+    st.tuples(st.just(".ply"), _edited(_PLY_TEXT).map(str.encode)),
+    st.tuples(st.just(".glb"), _edited_bytes(_GLB)),
+)
+
+
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(file=_FILES)
+def test_fuzz_any_file_gives_a_clean_error_or_a_valid_mesh(tmp_path, file):
+    suffix, content = file
+    path = tmp_path / f"fuzzed{suffix}"
+    path.write_bytes(content)
     _assert_clean(path)
