@@ -168,4 +168,4 @@ def test_the_report_rule_reads_every_methods_report_inputs(smoke):
     expected = []
     for kind in ("tables", "figures", "viewers"):
         expected += [f for m in methods.METHODS for f in getattr(m.report_inputs(smoke), kind)]
-    assert listed == expected
+    assert listed == [*expected, "results/provenance.json"]

@@ -83,11 +83,11 @@ def test_what_a_path_is_when_it_is_not_a_file(tmp_path):
     (tmp_path / "file").write_text("")
     (tmp_path / "dangling").symlink_to(tmp_path / "nothing")
     assert user_paths.file_problem(tmp_path / "file") is None
-    assert user_paths.file_problem(tmp_path / "dir") == "is a directory, expected a file"
-    assert user_paths.file_problem(tmp_path / "pipe") == (
-        "is not a regular file (a FIFO, socket or device)"
+    assert user_paths.file_problem(tmp_path / "dir") == "is a folder, not a file"
+    assert user_paths.file_problem(tmp_path / "pipe") == "is a named pipe (FIFO), not a file"
+    assert user_paths.file_problem(tmp_path / "dangling") == (
+        f"is a symbolic link to {tmp_path / 'nothing'}, which does not exist"
     )
-    assert user_paths.file_problem(tmp_path / "dangling") == "does not exist"
 
 
 @pytest.mark.parametrize("name", ["balls{v2}.csv", "balls{ v2 }.csv", "b{x,[0-9]+}.csv"])
@@ -147,11 +147,10 @@ def test_a_folder_or_fifo_given_as_a_probe_file_is_named_as_such(smoke, tmp_path
     probes = {"pipe": str(tmp_path / "sky.exr"), "dir": str(tmp_path / "sun.exr")}
     found = rules.problems(_with(smoke, "prt", "user_probes", probes))
     assert found == [
-        f"prt user entry 'pipe': file {tmp_path / 'sky.exr'} is not a regular file (a FIFO, "
-        "socket or device)",
-        f"prt user entry 'dir': file {tmp_path / 'sun.exr'} is a directory, expected a file",
+        f"prt user entry 'pipe': file {tmp_path / 'sky.exr'} is a named pipe (FIFO), not a file",
+        f"prt user entry 'dir': file {tmp_path / 'sun.exr'} is a folder, not a file",
     ]
-    with pytest.raises(FileNotFoundError, match=f"EXR file {tmp_path / 'sky.exr'} is not a"):
+    with pytest.raises(FileNotFoundError, match=rf"EXR file {tmp_path / 'sky.exr'} is a named pipe"):
         io.read_exr(tmp_path / "sky.exr")
 
 

@@ -46,20 +46,30 @@ def as_input(path: str) -> str:
 
 
 def file_problem(path: str | os.PathLike) -> str | None:
-    """Why ``path`` is not a readable regular file (symlinks followed), or ``None``:
-    ``"does not exist"``, ``"is a directory, expected a file"`` or ``"is not a regular
-    file (a FIFO, socket or device)"``."""
+    """What ``path`` is when it is no regular file (symbolic links followed), as words
+    that follow its name: ``does not exist``, ``is a folder, not a file``, ``is a named
+    pipe (FIFO), not a file`` ...; ``None`` for a regular file. A FIFO is never opened
+    (reading one waits for a writer)."""
+    path = Path(path)
     try:
-        mode = os.stat(path).st_mode
+        mode = path.stat().st_mode
     except FileNotFoundError:
+        if path.is_symlink():
+            return f"is a symbolic link to {path.readlink()}, which does not exist"
         return "does not exist"
     except OSError as err:
-        return f"cannot be read ({err.strerror})"
-    if stat.S_ISDIR(mode):
-        return "is a directory, expected a file"
-    if not stat.S_ISREG(mode):
-        return "is not a regular file (a FIFO, socket or device)"
-    return None
+        return f"cannot be examined ({err.strerror or err})"
+    if stat.S_ISREG(mode):
+        return None
+    kinds = {
+        stat.S_ISDIR: "a folder",
+        stat.S_ISFIFO: "a named pipe (FIFO)",
+        stat.S_ISSOCK: "a socket",
+        stat.S_ISCHR: "a character device",
+        stat.S_ISBLK: "a block device",
+    }
+    kind = next((word for test, word in kinds.items() if test(mode)), "not a regular file")
+    return f"is {kind}, not a file"
 
 
 def is_hidden(path: Path) -> bool:

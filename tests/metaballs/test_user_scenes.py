@@ -191,19 +191,16 @@ def test_a_folder_or_fifo_given_as_the_scenes_file_is_named_as_such(tmp_path):
 
     folder = tmp_path / "scenes.csv"
     folder.mkdir()
-    with pytest.raises(FileNotFoundError, match=f"CSV file {folder} is a directory"):
+    with pytest.raises(FileNotFoundError, match=f"CSV file {folder} is a folder"):
         read_user_scenes(folder)
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
-    with pytest.raises(FileNotFoundError, match=f"CSV file {fifo} is not a regular file"):
+    with pytest.raises(FileNotFoundError, match=rf"CSV file {fifo} is a named pipe \(FIFO\)"):
         read_user_scenes(fifo)
     cfg = {"metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32}}
-    (problem,) = method.problems(
-        {"metaballs": {**cfg["metaballs"], "user_scenes": str(fifo)}}
-    )
+    (problem,) = method.problems({"metaballs": {**cfg["metaballs"], "user_scenes": str(fifo)}})
     assert problem == (
-        f"metaballs.user_scenes = '{fifo}': CSV file {fifo} is not a regular file (a FIFO, "
-        "socket or device)"
+        f"metaballs.user_scenes = '{fifo}': CSV file {fifo} is a named pipe (FIFO), not a file"
     )
 
 

@@ -10,6 +10,7 @@ import trimesh
 from PIL import Image
 
 from neurender import asset_files
+from neurender.asset_files import AssetFileError
 from neurender.ndr import MESH_SUFFIXES, data, user_objects
 
 DEFAULTS = {"base_colour": [0.8, 0.7, 0.6], "specular": 0.04, "roughness": 0.5}
@@ -155,15 +156,15 @@ def test_bad_meshes_are_refused_naming_the_file(tmp_path):
         user_objects.load_user_object(tmp_path / "absent.ply", DEFAULTS)
     points = tmp_path / "points.ply"
     trimesh.PointCloud(np.random.default_rng(0).normal(size=(10, 3))).export(points)
-    with pytest.raises(ValueError, match=r"points\.ply has no triangles"):
+    with pytest.raises(AssetFileError, match=r"points\.ply: no faces; found PointCloud of 10"):
         user_objects.load_user_object(points, DEFAULTS)
     flat = tmp_path / "point.obj"
     flat.write_text("v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n")
-    with pytest.raises(ValueError, match=r"point\.obj has (a degenerate extent|no triangles)"):
+    with pytest.raises(AssetFileError, match=r"point\.obj: degenerate bounding box"):
         user_objects.load_user_object(flat, DEFAULTS)
     broken = tmp_path / "nan.obj"
     broken.write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n")
-    with pytest.raises(ValueError, match=r"nan\.obj has 1 vertices with NaN"):
+    with pytest.raises(AssetFileError, match=r"nan\.obj: 1 of 3 vertices are not finite"):
         user_objects.load_user_object(broken, DEFAULTS)
 
 
@@ -238,8 +239,10 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     update_config(cfg, yaml.safe_load((root / "config/smoke.yaml").read_text()))
     validate(cfg, str(root / "workflow/schemas/config.schema.yaml"))
     (tmp_path / "a.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "folder.obj").mkdir()
     cfg["ndr"]["user_objects"] = {
         "gone": str(tmp_path / "gone.glb"),
+        "folder": str(tmp_path / "folder.obj"),
         "text": str(tmp_path / "notes.txt"),
         "obj": str(tmp_path / "a.obj"),
         "made": "results/examples/vase.ply",
@@ -247,6 +250,7 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     found = [p for p in rules.problems(cfg) if "user_objects" in p]
     assert found == [
         f"ndr.user_objects entry 'gone': file {tmp_path / 'gone.glb'} does not exist",
+        f"ndr.user_objects entry 'folder': file {tmp_path / 'folder.obj'} is a folder, not a file",
         f"ndr.user_objects entry 'text': {tmp_path / 'notes.txt'} is not a mesh file NDR reads "
         f"({', '.join(MESH_SUFFIXES)})",
         f"ndr.user_objects entry 'obj': {tmp_path / 'a.obj'} names a.mtl ({tmp_path / 'a.mtl'}), "

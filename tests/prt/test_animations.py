@@ -216,7 +216,7 @@ def test_unreadable_and_empty_inputs_name_the_file(tmp_path):
     bad = tmp_path / "bad"
     bad.mkdir()
     (bad / "frame_0.obj").write_text("v 0 0 0\nv 1 0 0\n")
-    with pytest.raises(ValueError, match=r"frame_0\.obj: no triangles"):
+    with pytest.raises(ValueError, match=r"frame_0\.obj: no faces; found PointCloud of 2 vertices"):
         animations.load_sequence([str(bad)], [], "prt.user_sequences.bad")
     with pytest.raises(ValueError, match=r"prt.user_sequences.none.frames: no mesh files"):
         animations.load_sequence([str(tmp_path / "missing")], [], "prt.user_sequences.none")

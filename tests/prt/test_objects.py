@@ -3,6 +3,7 @@ import pytest
 import trimesh
 
 from neurender import io
+from neurender.asset_files import AssetFileError
 from neurender.prt import jobs, objects
 from neurender.shapes import BLENDSHAPES
 
@@ -63,9 +64,9 @@ def test_user_mesh_with_several_components_is_refused_naming_the_file(tmp_path):
 
 
 def test_user_mesh_format_and_missing_file(tmp_path):
-    with pytest.raises(ValueError, match="unsupported format"):
+    with pytest.raises(AssetFileError, match=r"x\.fbx: unknown mesh format \.fbx; expected one"):
         objects.load_user_mesh(tmp_path / "x.fbx")
-    with pytest.raises(FileNotFoundError, match="x.obj"):
+    with pytest.raises(AssetFileError, match=r"x\.obj: no such file"):
         objects.load_user_mesh(tmp_path / "x.obj")
 
 

@@ -234,6 +234,5 @@ def test_a_fifo_or_a_folder_named_as_a_frame_is_named_as_such(smoke, tmp_path):
     os.mkfifo(fifo)
     changed = _with_sequences(smoke, {"w": {"frames": str(fifo)}})
     assert rules.problems(changed) == [
-        f"prt.user_sequences.w.frames = {str(fifo)!r}: is not a regular file (a FIFO, "
-        "socket or device)"
+        f"prt.user_sequences.w.frames = {str(fifo)!r}: is a named pipe (FIFO), not a file"
     ]

@@ -2,6 +2,7 @@
 checked before any job starts (neurender.config), each naming the key and the file."""
 
 import copy
+import os
 from pathlib import Path
 
 import pytest
@@ -79,11 +80,13 @@ def test_missing_files_unknown_formats_and_built_in_names_are_refused(base, tmp_
     trimesh.creation.box().export(tmp_path / "box.ply")
     (tmp_path / "crate.obj").write_text("mtllib crate.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     (tmp_path / "crate.mtl").write_text("newmtl a\nmap_Kd crate.png\n")
+    os.mkfifo(tmp_path / "pipe.glb")
     cfg = with_assets(
         base,
         {
             "ok": {"path": str(tmp_path / "box.ply")},
             "gone": {"path": str(tmp_path / "gone.glb")},
+            "pipe": {"path": str(tmp_path / "pipe.glb")},
             "fbx": {"path": str(tmp_path / "mesh.fbx")},
             "head": {"path": str(tmp_path / "box.ply")},
             "crate": {"path": str(tmp_path / "crate.obj")},
@@ -92,6 +95,8 @@ def test_missing_files_unknown_formats_and_built_in_names_are_refused(base, tmp_
     )
     assert simplify_problems(cfg) == [
         f"simplify.user_assets.gone.path = '{tmp_path / 'gone.glb'}': file does not exist",
+        f"simplify.user_assets.pipe.path = '{tmp_path / 'pipe.glb'}': file is a named pipe "
+        "(FIFO), not a file",
         f"simplify.user_assets.fbx.path = '{tmp_path / 'mesh.fbx'}': expected a mesh file "
         "(.obj, .glb, .gltf, .ply, .off, .stl)",
         "simplify.user_assets.head: the name of a built-in case (head, metaballs); pick another",

@@ -246,23 +246,14 @@ def test_an_unreadable_file_an_unknown_format_and_no_file_are_refused(tmp_path):
         user_mesh.load(tmp_path / "gone.ply")
 
 
-def test_sample_bilinear_repeats_and_hits_texel_centres():
-    texture = np.arange(4 * 3 * 3, dtype=float).reshape(4, 3, 3)
-    centres = np.array([[0.5 / 3, 0.5 / 4], [2.5 / 3, 3.5 / 4], [1 + 1.5 / 3, -1 + 2.5 / 4]])
-    np.testing.assert_allclose(
-        user_mesh.sample_bilinear(texture, centres), texture[[0, 3, 2], [0, 2, 1]]
-    )
-    # Half-way between the last and the first column wraps around.
-    edge = user_mesh.sample_bilinear(texture, np.array([[1.0, 0.5 / 4]]))
-    np.testing.assert_allclose(edge[0], (texture[0, 0] + texture[0, 2]) / 2)
-
-
 def test_an_unreadable_texture_is_refused_not_dropped(tmp_path):
     lines = ["mtllib a.mtl", "v 0 0 0", "v 1 0 0", "v 0 1 0", "vt 0 0", "vt 1 0", "vt 0 1"]
     lines += ["usemtl m", "f 1/1 2/2 3/3"]
     write_obj(tmp_path / "a.obj", lines, ["newmtl m", "map_Kd a.png"])
     (tmp_path / "a.png").write_text("not an image")
-    with pytest.raises(
-        AssetFileError, match=r"a.obj: its MTL names a base-colour texture \(a.png\)"
-    ):
+    with pytest.raises(AssetFileError) as err:
         user_mesh.load(tmp_path / "a.obj")
+    assert str(err.value).startswith(
+        f"{tmp_path / 'a.obj'}: {tmp_path / 'a.mtl'} names a.png ({tmp_path / 'a.png'}), which "
+        "could not be read: it cannot be decoded (UnidentifiedImageError"
+    )

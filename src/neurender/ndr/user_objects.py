@@ -1,8 +1,9 @@
 """Your objects through NDR: meshes with their materials from the files users bring, and
 their renders under the test maps, the real-world-like maps and the user's maps.
 
-Loading (:func:`load_user_object`): whatever trimesh loads (OBJ + MTL + textures,
-glTF/GLB, PLY, OFF, STL) and the VTK formats through PyVista (``.vtk``, ``.vtp``). One
+Loading (:func:`load_user_object`, through :func:`neurender.mesh_file.read` as every
+method reads a user's mesh): whatever trimesh loads (OBJ + MTL + textures, glTF/GLB, PLY,
+OFF, STL) and the VTK formats through PyVista (``.vtk``, ``.vtp``, ``.vtu``). One
 object is every triangle mesh of the file (a glTF scene's nodes with their transforms),
 normalised to the unit sphere like the procedural objects (:mod:`neurender.ndr.objects`:
 bounding-box centre at the origin, farthest vertex at distance 1), in the file's own axes
@@ -45,7 +46,8 @@ import pandas as pd
 import torch
 import trimesh
 
-from neurender import asset_files, rng
+from neurender import mesh_file, rng
+from neurender.display import linear_from_srgb
 from neurender.geometry import vertex_normals
 from neurender.ndr import MESH_SUFFIXES, data, environments, render
 from neurender.ndr.buffers import light_features, stack_samples
@@ -78,35 +80,6 @@ class UserObject(ProceduralObject):
         return vertex_normals(welded, inverse.reshape(-1)[self.faces])[inverse.reshape(-1)]
 
 
-def srgb_to_linear(x: np.ndarray) -> np.ndarray:
-    """The inverse sRGB transfer function of values in [0, 1]."""
-    x = np.asarray(x, np.float64)
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-
-
-def sample_texture(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear samples ``(N, C)`` of ``image`` ``(H, W, C)`` at ``uv`` ``(N, 2)``,
-    wrapping (glTF's default sampler); ``v`` = 0 is the image's bottom row (trimesh's
-    convention for every format)."""
-    h, w = image.shape[:2]
-    x = np.mod(uv[:, 0], 1.0) * w - 0.5
-    y = np.mod(1.0 - uv[:, 1], 1.0) * h - 0.5
-    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-
-    def at(r, c):
-        return image[np.mod(r, h), np.mod(c, w)].astype(np.float64)
-
-    top = at(y0, x0) * (1 - fx) + at(y0, x0 + 1) * fx
-    bottom = at(y0 + 1, x0) * (1 - fx) + at(y0 + 1, x0 + 1) * fx
-    return top * (1 - fy) + bottom * fy
-
-
-def _image(picture) -> np.ndarray:
-    """A PIL image as ``(H, W, 3)`` float64 in [0, 1] (no decoding)."""
-    return np.asarray(picture.convert("RGB"), np.float64) / 255.0
-
-
 @dataclasses.dataclass
 class Material:
     """Per-vertex ``base`` ``(V, 3)`` linear colour, and ``metallic``, ``roughness``
@@ -115,6 +88,14 @@ class Material:
     base: np.ndarray
     metallic: np.ndarray | None = None
     roughness: np.ndarray | None = None
+
+
+def _sample(picture, uv: np.ndarray) -> np.ndarray:
+    """A PIL image's stored values ``(V, 3)`` (not decoded) sampled bilinearly at trimesh's
+    texture coordinates ``uv`` ``(V, 2)``, wrapping (glTF's default sampler)."""
+    return mesh_file.sample_bilinear(
+        mesh_file.image_values(picture, np.float64), mesh_file.image_uv(uv)
+    )
 
 
 def _factor(colour, default: np.ndarray) -> np.ndarray:
@@ -132,7 +113,7 @@ def piece_material(mesh: trimesh.Trimesh, defaults: dict, srgb_colours: bool = T
     visual = mesh.visual
     if visual.kind in ("vertex", "face"):
         colours = np.asarray(visual.vertex_colors, np.float64)[:, :3] / 255.0
-        return Material(srgb_to_linear(colours) if srgb_colours else colours)
+        return Material(linear_from_srgb(colours) if srgb_colours else colours)
     if not isinstance(visual, trimesh.visual.TextureVisuals) or visual.material is None:
         return Material(np.broadcast_to(default, (count, 3)).copy())
     material, uv = visual.material, visual.uv
@@ -140,7 +121,7 @@ def piece_material(mesh: trimesh.Trimesh, defaults: dict, srgb_colours: bool = T
     if isinstance(material, trimesh.visual.material.PBRMaterial):
         base = np.broadcast_to(_factor(material.baseColorFactor, np.ones(3)), (count, 3)).copy()
         if material.baseColorTexture is not None and has_uv:
-            base *= srgb_to_linear(sample_texture(_image(material.baseColorTexture), uv))
+            base *= linear_from_srgb(_sample(material.baseColorTexture, uv))
         elif material.baseColorFactor is None:
             base[:] = default
         mr_texture = material.metallicRoughnessTexture if has_uv else None
@@ -157,12 +138,12 @@ def piece_material(mesh: trimesh.Trimesh, defaults: dict, srgb_colours: bool = T
             count, 1.0 if material.roughnessFactor is None else material.roughnessFactor
         )
         if mr_texture is not None:
-            texel = sample_texture(_image(mr_texture), uv)
+            texel = _sample(mr_texture, uv)
             metallic, rough = metallic * texel[:, 2], rough * texel[:, 1]
         return Material(base, metallic, rough)
     image = getattr(material, "image", None)
     if image is not None and has_uv:
-        return Material(srgb_to_linear(sample_texture(_image(image), uv)))
+        return Material(linear_from_srgb(_sample(image, uv)))
     return Material(
         np.broadcast_to(_factor(getattr(material, "diffuse", None), default), (count, 3)).copy()
     )
@@ -190,39 +171,6 @@ def lobes(material: Material, defaults: dict) -> tuple[np.ndarray, np.ndarray, n
     )
 
 
-def _vtk_mesh(path: Path) -> trimesh.Trimesh:
-    """A VTK file read by PyVista, triangulated; an 8-bit ``RGB``/``RGBA`` (or ``Colors``)
-    point array becomes vertex colours."""
-    import pyvista as pv
-
-    data = pv.read(str(path))
-    surface = (data if isinstance(data, pv.PolyData) else data.extract_surface()).triangulate()
-    faces = surface.faces.reshape(-1, 4)[:, 1:] if surface.n_cells else np.zeros((0, 3), int)
-    colours = next(
-        (
-            np.asarray(surface.point_data[k])
-            for k in ("RGB", "RGBA", "Colors")
-            if k in surface.point_data and np.asarray(surface.point_data[k]).dtype == np.uint8
-        ),
-        None,
-    )
-    return trimesh.Trimesh(surface.points, faces, vertex_colors=colours, process=False)
-
-
-def _pieces(path: Path) -> list[trimesh.Trimesh]:
-    """The triangle meshes of a file as written (trimesh's merging and clean-up off, so a
-    NaN vertex is refused, not dropped), with their scene transforms applied."""
-    if path.suffix.lower() in asset_files.VTK_SUFFIXES:
-        return [_vtk_mesh(path)]
-    try:
-        loaded = trimesh.load(path, process=False)  # as written: no silent clean-up
-    except Exception as err:  # trimesh raises many kinds for a broken file
-        raise ValueError(f"mesh {path}: trimesh cannot read it ({err})") from err
-    if isinstance(loaded, trimesh.Scene):
-        return [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
-    return [loaded] if isinstance(loaded, trimesh.Trimesh) else []
-
-
 def load_user_object(path: str | Path, defaults: dict) -> UserObject:
     """A user's mesh file as an object with per-vertex materials, normalised to the unit
     sphere (module docstring).
@@ -232,42 +180,22 @@ def load_user_object(path: str | Path, defaults: dict) -> UserObject:
             what the file does not say (``ndr.user_object_defaults``).
 
     Raises:
-        ValueError: naming the file: an unknown suffix, no such file, a missing material or
-            texture file it names, no triangles, non-finite vertices or a degenerate extent.
+        AssetFileError: naming the file and what was found (:func:`neurender.mesh_file.read`).
     """
-    path = asset_files.check(path, MESH_SUFFIXES)
-    pieces = [p for p in _pieces(path) if len(p.faces)]
-    if not pieces:
-        raise ValueError(f"mesh {path} has no triangles")
-    vertices, faces, ad, as_, rough, offset = [], [], [], [], [], 0
-    for piece in pieces:
-        v = np.asarray(piece.vertices, np.float64)
-        if not np.isfinite(v).all():
-            bad = int((~np.isfinite(v).all(1)).sum())
-            raise ValueError(f"mesh {path} has {bad} vertices with NaN or infinite coordinates")
-        srgb = path.suffix.lower() not in (".glb", ".gltf")
-        d, s, r = lobes(piece_material(piece, defaults, srgb), defaults)
-        vertices.append(v)
-        faces.append(np.asarray(piece.faces) + offset)
-        ad.append(d)
-        as_.append(s)
-        rough.append(r)
-        offset += len(v)
-    v = np.concatenate(vertices)
-    extent = v.max(0) - v.min(0)
-    if extent.max() <= 1e-9 * max(1.0, float(np.abs(v).max())):
-        raise ValueError(
-            f"mesh {path} has a degenerate extent {extent.tolist()} (all vertices in one point)"
-        )
+    mesh = mesh_file.read(path, MESH_SUFFIXES)
+    srgb = not mesh.linear_colours
+    materials = [lobes(piece_material(p, defaults, srgb), defaults) for p in mesh.parts]
+    v, faces = mesh.merged()
     v = v - (v.min(0) + v.max(0)) / 2
     v /= np.linalg.norm(v, axis=1).max()
+    ad, as_, rough = (np.concatenate(lobe) for lobe in zip(*materials, strict=True))
     return UserObject(
         vertices=v.astype(np.float32),
-        faces=np.concatenate(faces).astype(np.int32),
-        albedo_diffuse=np.concatenate(ad),
-        albedo_specular=np.concatenate(as_),
-        roughness=np.concatenate(rough),
-        n_primitives=len(pieces),
+        faces=faces.astype(np.int32),
+        albedo_diffuse=ad,
+        albedo_specular=as_,
+        roughness=rough,
+        n_primitives=len(mesh.parts),
     )
 
 

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import igl
 import numpy as np
-import pyvista as pv
 import scipy.spatial
 import trimesh
 
+from neurender import mesh_file
 from neurender.prt import MESH_SUFFIXES, VTK_SUFFIXES
 from neurender.shapes import SourceMesh, disk_mesh, gauss, head_mesh
 
@@ -101,40 +101,15 @@ def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> N
 
 
 def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices ``(V, 3)`` float64 and triangles ``(F, 3)`` int64 of a mesh file, as stored.
+    """Vertices ``(V, 3)`` float64 and triangles ``(F, 3)`` int64 of a mesh file as stored,
+    every mesh of the file together (:func:`neurender.mesh_file.read`, geometry only).
 
-    Raises ``ValueError``/``OSError`` naming the file for an unknown format, an unreadable
-    file, no triangles or non-finite positions.
+    Raises:
+        AssetFileError: naming the file: an unknown format, no such file, an unreadable
+            file, no triangles, face indices out of range, non-finite positions, a
+            degenerate bounding box.
     """
-    p = Path(path)
-    suffix = p.suffix.lower()
-    if suffix not in MESH_SUFFIXES + VTK_SUFFIXES:
-        raise ValueError(
-            f"mesh {p}: unsupported format {p.suffix!r}; expected one of "
-            f"{', '.join(MESH_SUFFIXES + VTK_SUFFIXES)}"
-        )
-    if not p.is_file():
-        raise FileNotFoundError(f"mesh file {p} does not exist")
-    try:
-        if suffix in VTK_SUFFIXES:
-            mesh = pv.read(p)
-            surface = mesh if isinstance(mesh, pv.PolyData) else mesh.extract_surface()
-            surface = surface.triangulate()
-            vertices = np.asarray(surface.points, dtype=np.float64)
-            faces = surface.faces.reshape(-1, 4)[:, 1:] if surface.n_cells else np.zeros((0, 3))
-        else:
-            mesh = trimesh.load(p, force="mesh", process=False)
-            vertices, faces = mesh.vertices, mesh.faces
-    except Exception as err:  # every reader has its own exceptions
-        raise OSError(f"cannot read mesh file {p}: {err}") from err
-    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    if len(faces) == 0:
-        raise ValueError(f"mesh {p}: no triangles found")
-    bad = int((~np.isfinite(vertices)).any(axis=1).sum())
-    if bad:
-        raise ValueError(f"mesh {p}: {bad} vertices are not finite (NaN or inf)")
-    return vertices, faces
+    return mesh_file.read(path, MESH_SUFFIXES + VTK_SUFFIXES, materials=False).merged()
 
 
 def load_user_mesh(path: str | Path) -> SourceMesh:

@@ -1,9 +1,10 @@
 """A user's mesh file with its material, as the simplification stage reads it.
 
-Formats (trimesh reads them): OBJ with its MTL files and textures, glTF 2.0 (``.gltf``
-with its buffers and images, or ``.glb``), PLY (vertex or face colours), OFF, STL. Every
-mesh of a file (glTF primitives, OBJ groups with their own material, the instances of a
-glTF scene graph with their node transforms) becomes one :class:`Part`; the parts together
+Formats (read by :func:`neurender.mesh_file.read`, as every method reads a user's mesh):
+OBJ with its MTL files and textures, glTF 2.0 (``.gltf`` with its buffers and images, or
+``.glb``), PLY (vertex or face colours), OFF, STL. Every mesh of a file (glTF primitives,
+OBJ groups with their own material, the instances of a glTF scene graph with their node
+transforms) becomes one :class:`Part`; the parts together
 are the detailed surface, welded where their vertices coincide (UV seams split vertices
 in files, QEM and smooth normals need them joined).
 
@@ -25,9 +26,11 @@ here (:func:`neurender.display.linear_from_srgb`); glTF's ``baseColorFactor`` an
 ``COLOR_0`` and MTL's ``Kd`` are linear, as their specifications (and Blender) use them.
 Everything this module returns is linear, as Mitsuba's reflectance is.
 
-Texture conventions (those of :mod:`neurender.simplify.render`): arrays ``(H, W, 3)``
-with row 0 the image's top row, texture coordinates ``(u, v)`` with ``v`` pointing down the
-image (glTF's; OBJ and trimesh count ``v`` up: ``v = 1 - v_obj``), bilinear, repeating.
+Texture conventions (those of :mod:`neurender.simplify.render` and
+:func:`neurender.mesh_file.sample_bilinear`): arrays ``(H, W, 3)`` with row 0 the image's
+top row, texture coordinates ``(u, v)`` with ``v`` pointing down the image (glTF's; OBJ and
+trimesh count ``v`` up: :func:`~neurender.mesh_file.image_uv` gives ``v = 1 - v_obj``),
+bilinear, repeating.
 """
 
 from __future__ import annotations
@@ -38,48 +41,13 @@ from types import ModuleType
 
 import numpy as np
 import trimesh
-from PIL import Image
 
-from neurender import asset_files, mitsuba_setup
-from neurender.asset_files import AssetFileError
+from neurender import asset_files, mesh_file, mitsuba_setup
 from neurender.display import linear_from_srgb
 from neurender.geometry import vertex_normals
+from neurender.mesh_file import image_uv, image_values, sample_bilinear
 
 PLAIN_ALBEDO = 0.5
-#: A bounding box counts as degenerate when its second-largest extent is below this
-#: fraction of its largest (a point or a line segment: no surface to render).
-FLAT_TOLERANCE = 1e-6
-
-
-def image_values(image: Image.Image) -> np.ndarray:
-    """A PIL image as ``(H, W, 3)`` float32 values in [0, 1], still encoded as stored
-    (8 or 16 bit; grey is repeated in three channels, alpha is dropped)."""
-    if image.mode in ("I;16", "I;16L", "I;16B", "I"):
-        grey = np.asarray(image, dtype=np.float32) / 65535.0
-        return np.repeat(grey[..., None], 3, axis=-1)
-    return np.asarray(image.convert("RGB"), dtype=np.float32) / 255.0
-
-
-def sample_bilinear(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear lookup with repeat wrapping, as Mitsuba's ``bitmap`` texture does.
-
-    Args:
-        texture: ``(H, W, C)``, row 0 at ``v = 0``; texel ``(r, c)`` is centred at
-            ``((c + 0.5) / W, (r + 0.5) / H)``.
-        uv: ``(K, 2)`` texture coordinates.
-
-    Returns:
-        ``(K, C)`` values.
-    """
-    h, w = texture.shape[:2]
-    x, y = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    c0, r0 = x0.astype(np.int64) % w, y0.astype(np.int64) % h
-    c1, r1 = (c0 + 1) % w, (r0 + 1) % h
-    top = texture[r0, c0] * (1 - fx) + texture[r0, c1] * fx
-    bottom = texture[r1, c0] * (1 - fx) + texture[r1, c1] * fx
-    return top * (1 - fy) + bottom * fy
 
 
 @dataclasses.dataclass
@@ -237,7 +205,7 @@ def _part(mesh: trimesh.Trimesh, linear_colours: bool) -> Part:
             normal = None
         uv = visual.uv
         if uv is not None and len(uv) == len(vertices):
-            part.uvs = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float64)
+            part.uvs = image_uv(uv)
             if image is not None:
                 part.texture = linear_from_srgb(image_values(image))
             if normal is not None:
@@ -265,61 +233,20 @@ def _colours(values: np.ndarray, linear: bool) -> np.ndarray:
     return rgb if linear else linear_from_srgb(rgb)
 
 
-def _read(path: Path) -> list:
-    """Every geometry of the file, node transforms applied (trimesh's scene flattening)."""
-    try:
-        scene = trimesh.load(path, force="scene", process=False)
-    except Exception as err:  # trimesh raises many kinds for unreadable files
-        raise AssetFileError(
-            f"{path}: could not be read as {path.suffix.lower()[1:].upper()} "
-            f"({type(err).__name__}: {err})"
-        ) from err
-    return scene.dump(concatenate=False) if len(scene.geometry) else []
-
-
-def _check_surface(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
-    bad = ~np.isfinite(vertices).all(1)
-    if bad.any():
-        first = int(np.flatnonzero(bad)[0])
-        raise AssetFileError(
-            f"{path}: {int(bad.sum())} of {len(vertices)} vertices are not finite (NaN or "
-            f"inf), e.g. vertex {first} = {vertices[first].tolist()}"
-        )
-    used = vertices[np.unique(faces)]
-    extents = np.sort(used.max(0) - used.min(0))[::-1]
-    if not extents[0] > 0 or extents[1] < FLAT_TOLERANCE * extents[0]:
-        raise AssetFileError(
-            f"{path}: degenerate bounding box, extents {[float(e) for e in extents]} "
-            f"(sorted); expected a surface that spans at least two axes"
-        )
-
-
 def load(path: str | Path) -> UserMesh:
     """Read a user's asset (see the module docstring).
 
     Raises:
-        AssetFileError: naming the file and what was found: an unknown suffix, a missing
-            file or a missing file it names (MTL, texture, buffer), an unreadable file, no
-            faces, non-finite vertices, a degenerate bounding box.
+        AssetFileError: naming the file and what was found (:func:`neurender.mesh_file.read`):
+            an unknown suffix, a missing file or a missing or unreadable file it names (MTL,
+            texture, buffer), an unreadable file, no faces, face indices out of range,
+            non-finite vertices, a degenerate bounding box.
     """
-    path = asset_files.check(path, asset_files.TRIMESH_SUFFIXES)
-    suffix = path.suffix.lower()
-    geometries = _read(path)
-    meshes = [g for g in geometries if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-    if not meshes:
-        found = ", ".join(f"{type(g).__name__} of {len(g.vertices)} vertices" for g in geometries)
-        raise AssetFileError(f"{path}: no faces; found {found or 'no geometry'}")
-    parts = [_part(m, linear_colours=suffix in (".glb", ".gltf")) for m in meshes]
-    textures = asset_files.obj_maps(path, "map_kd") if suffix == ".obj" else []
-    if textures and not any(p.kind == "texture" for p in parts):
-        raise AssetFileError(
-            f"{path}: its MTL names a base-colour texture ({textures[0].name}) but none could "
-            "be read (an unreadable image, or no texture coordinates in the OBJ)"
-        )
+    mesh = mesh_file.read(path, asset_files.TRIMESH_SUFFIXES)
+    parts = [_part(m, linear_colours=mesh.linear_colours) for m in mesh.parts]
     vertices = np.concatenate([p.vertices for p in parts])
     offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
     faces = np.concatenate([p.faces + o for p, o in zip(parts, offsets, strict=True)])
-    _check_surface(path, vertices, faces)
     welded, weld = np.unique(vertices, axis=0, return_inverse=True)
     weld = weld.ravel()
-    return UserMesh(str(path), parts, welded, weld[faces], weld)
+    return UserMesh(str(mesh.path), parts, welded, weld[faces], weld)
