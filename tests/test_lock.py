@@ -85,7 +85,6 @@ def test_the_lock_pins_what_requirements_in_names_torch_as_the_cpu_wheel():
         (version,) = req.specifier
         assert lock[canonicalize_name(req.name)][0] == Version(version.version)
     assert lock["torch"][0].local == "cpu"
-    assert len(lock["torch"][1]) == 1  # the hash of the one CPU wheel for CPython 3.11
 
 
 def test_the_rules_env_pins_the_locked_runtime_versions():
