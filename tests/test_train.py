@@ -285,10 +285,21 @@ def test_a_resume_file_holding_a_pickled_object_is_discarded_unrun(tmp_path, cap
     assert [h["epoch"] for h in history] == [1, 2]  # trained from scratch
 
 
-def test_extra_state_other_than_tensors_and_plain_types_fails_before_training(tmp_path):
+@pytest.mark.parametrize(
+    ("value", "where"),
+    [
+        ({"offset": np.zeros(3, np.float32)}, r"\['norm'\]\['offset'\] is a numpy.ndarray"),
+        ([4, np.float64(0.5)], r"\['norm'\]\[1\] is a numpy.float64"),  # a float subclass
+        ({3.5: 1}, r"\['norm'\] has a key 3.5 of type float"),
+    ],
+    ids=["array", "numpy scalar", "float key"],
+)
+def test_extra_state_other_than_tensors_and_plain_types_fails_before_training(
+    tmp_path, value, where
+):
     train_set, val_set = _problem()
-    extra = {"norm": {"offset": np.zeros(3, np.float32)}, "widths": [4, 8]}
-    with pytest.raises(TypeError, match=r"extra_state of .*m.pt\['norm'\]\['offset'\] is a numpy"):
+    extra = {"norm": value, "widths": [4, 8]}
+    with pytest.raises(TypeError, match=r"extra_state of .*m.pt" + where):
         train.fit(
             _model(),
             train_set,

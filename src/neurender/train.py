@@ -144,27 +144,29 @@ def _atomic_torch_save(obj: Any, path: Path) -> None:
         torch.save(obj, tmp)
 
 
-_PLAIN = (torch.Tensor, str, int, float, bool, type(None))
+# Exact types: subclasses (numpy.float64 is a float, Snakemake's Namedlist a list) pickle
+# as their own class, which weights_only refuses.
+_PLAIN = {str, int, float, bool, type(None)}
 
 
 def check_plain(value: Any, where: str) -> None:
     """Raise ``TypeError`` naming the key if ``value`` holds anything but tensors and plain
-    types (str, int, float, bool, None, and lists, tuples and str-keyed dicts of them): what
-    :func:`load_checkpoint` can read back with ``weights_only=True``."""
-    if isinstance(value, Mapping):
+    types (str, int, float, bool, None, and lists, tuples and dicts of them with str or int
+    keys): what :func:`load_checkpoint` reads back with ``weights_only=True``."""
+    if type(value) is dict:
         for key, item in value.items():
-            if not isinstance(key, str | int):
+            if type(key) not in (str, int):
                 raise TypeError(f"{where} has a key {key!r} of type {type(key).__name__}")
             check_plain(item, f"{where}[{key!r}]")
-    elif isinstance(value, list | tuple):
+    elif type(value) in (list, tuple):
         for i, item in enumerate(value):
             check_plain(item, f"{where}[{i}]")
-    elif not isinstance(value, _PLAIN):
+    elif not (isinstance(value, torch.Tensor) or type(value) in _PLAIN):
         kind = f"{type(value).__module__}.{type(value).__qualname__}"
         raise TypeError(
             f"{where} is a {kind}; a checkpoint stores only tensors and plain types (str, "
             "int, float, bool, None, lists, tuples, dicts): convert it (torch.from_numpy, "
-            "dataclasses.asdict, .item())"
+            "dataclasses.asdict, float(), list())"
         )
 
 
