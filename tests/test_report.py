@@ -64,6 +64,28 @@ def test_table_cells_are_escaped(tmp_path):
     assert "error &lt;= 15 deg &amp; &lt;b&gt;" in (tmp_path / "r.html").read_text()
 
 
+def test_table_headers_are_escaped(tmp_path):
+    res = tmp_path / "results" / "metaballs"
+    script = "<script>alert(1)</script>"
+    io.write_csv(res / "data.csv", pd.DataFrame({script: ["a"], "x & y": [1.0]}))
+    tidy = pd.DataFrame(  # a tidy table: metric names become the pivoted table's headers
+        {
+            "method": ["metaballs"],
+            "dataset": ["d"],
+            "model": ["m"],
+            "split": ["test"],
+            "metric": [script],
+            "value": [0.5],
+        }
+    )
+    io.write_csv(res / "metrics.csv", tidy)
+    report.build_report([res / "data.csv", res / "metrics.csv"], [], tmp_path / "r.html")
+    page = (tmp_path / "r.html").read_text()
+    assert "<script>alert" not in page
+    assert page.count("<th>&lt;script&gt;alert(1)&lt;/script&gt;</th>") == 2
+    assert "<th>x &amp; y</th>" in page
+
+
 def _tidy(rows):
     return pd.DataFrame(
         [("ndr", "complex", m, "test", metric, v) for m, metric, v in rows],

@@ -1,3 +1,6 @@
+import pickle
+
+import numpy as np
 import pandas as pd
 import pytest
 import torch
@@ -46,11 +49,12 @@ def test_resume_after_interruption_is_identical(tmp_path):
     train_set, val_set = _problem()
     full = _model()
     train.fit(full, train_set, val_set, _loss, _cfg(4), tmp_path / "full.pt", tmp_path / "full.csv")
-    assert _interrupted_run(tmp_path, _cfg(4), epochs_done=2).exists()
+    resume = _interrupted_run(tmp_path, _cfg(4), epochs_done=2)
+    assert torch.load(resume, weights_only=True)["epoch"] == 2  # tensors and plain types only
     resumed = _model()
     train.fit(resumed, train_set, val_set, _loss, _cfg(4), tmp_path / "r.pt", tmp_path / "r.csv")
-    a = torch.load(tmp_path / "full.pt", weights_only=False)
-    b = torch.load(tmp_path / "r.pt", weights_only=False)
+    a = torch.load(tmp_path / "full.pt", weights_only=True)
+    b = torch.load(tmp_path / "r.pt", weights_only=True)
     for k in a["last_model"]:
         torch.testing.assert_close(a["last_model"][k], b["last_model"][k])
     assert [h["epoch"] for h in b["history"]] == [1, 2, 3, 4]
@@ -240,3 +244,89 @@ def test_two_cuda_runs_with_one_seed_are_identical(tmp_path):
         runs.append(train.load_checkpoint(tmp_path / f"{name}.pt")["last_model"])
     for k in runs[0]:
         torch.testing.assert_close(runs[0][k], runs[1][k], rtol=0, atol=0)
+
+
+class _RunsCode:
+    """Unpickling this writes ``marker``: what a hostile checkpoint would do."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return exec, (f"open({self.marker!r}, 'w').write('ran')",)
+
+
+def test_the_hostile_payload_runs_when_unpickled(tmp_path):
+    """The payload of the two tests below is live: plain unpickling runs it."""
+    pickle.loads(pickle.dumps(_RunsCode(tmp_path / "ran")))
+    assert (tmp_path / "ran").read_text() == "ran"
+
+
+def test_a_checkpoint_holding_a_pickled_object_is_refused_naming_the_file(tmp_path):
+    path, marker = tmp_path / "foreign.pt", tmp_path / "ran"
+    torch.save({"model": {"w": torch.zeros(2)}, "extra": {"x": _RunsCode(marker)}}, path)
+    with pytest.raises(OSError, match=f"refusing to load checkpoint {path}: it holds objects"):
+        train.load_checkpoint(path)
+    assert not marker.exists()  # the code did not run
+
+
+def test_a_resume_file_holding_a_pickled_object_is_discarded_unrun(tmp_path, caplog):
+    resume, marker = train.resume_path_for(tmp_path / "r.pt"), tmp_path / "ran"
+    torch.save({"key": "k", "epoch": 2, "history": [_RunsCode(marker)]}, resume)
+    train_set, val_set = _problem()
+    with caplog.at_level("WARNING", logger="neurender.train"):
+        train.fit(
+            _model(), train_set, val_set, _loss, _cfg(2), tmp_path / "r.pt", tmp_path / "r.csv"
+        )
+    assert not marker.exists()
+    assert f"discarding unreadable resume file {resume}" in caplog.text
+    assert "objects other than tensors and plain types" in caplog.text
+    history = train.load_checkpoint(tmp_path / "r.pt")["history"]
+    assert [h["epoch"] for h in history] == [1, 2]  # trained from scratch
+
+
+@pytest.mark.parametrize(
+    ("value", "where"),
+    [
+        ({"offset": np.zeros(3, np.float32)}, r"\['norm'\]\['offset'\] is a numpy.ndarray"),
+        ([4, np.float64(0.5)], r"\['norm'\]\[1\] is a numpy.float64"),  # a float subclass
+        ({3.5: 1}, r"\['norm'\] has a key 3.5 of type float"),
+    ],
+    ids=["array", "numpy scalar", "float key"],
+)
+def test_extra_state_other_than_tensors_and_plain_types_fails_before_training(
+    tmp_path, value, where
+):
+    train_set, val_set = _problem()
+    extra = {"norm": value, "widths": [4, 8]}
+    with pytest.raises(TypeError, match=r"extra_state of .*m.pt" + where):
+        train.fit(
+            _model(),
+            train_set,
+            val_set,
+            _loss,
+            _cfg(1),
+            tmp_path / "m.pt",
+            tmp_path / "l.csv",
+            extra_state=extra,
+        )
+    assert not (tmp_path / "m.pt").exists() and not (tmp_path / "l.csv").exists()
+
+
+def test_a_checkpoint_with_tensors_and_plain_types_loads_with_weights_only(tmp_path):
+    train_set, val_set = _problem()
+    extra = {"offset": torch.arange(3.0), "widths": [4, 8], "name": "a", "betas": (0.5, 0.9)}
+    train.fit(
+        _model(),
+        train_set,
+        val_set,
+        _loss,
+        _cfg(1),
+        tmp_path / "m.pt",
+        tmp_path / "l.csv",
+        extra_state=extra,
+    )
+    ckpt = torch.load(tmp_path / "m.pt", weights_only=True)
+    assert ckpt["extra"]["widths"] == [4, 8] and ckpt["extra"]["betas"] == (0.5, 0.9)
+    torch.testing.assert_close(ckpt["extra"]["offset"], torch.arange(3.0))
+    assert ckpt["config"]["betas"] == (0.9, 0.999) and ckpt["config"]["seed"] == 3

@@ -3,6 +3,9 @@
 * ``device: auto`` picks CUDA when present, else the CPU with ``threads`` torch threads.
 * Fixed seed: weights, shuffling (a generator seeded per epoch) and dropout are
   reproducible, including across an interruption and resume.
+* Checkpoints and resume files hold only tensors and plain types (numbers, strings,
+  lists, tuples, dicts) and are read with ``torch.load(weights_only=True)``: a results
+  folder or resume file from someone else cannot run code when it is loaded.
 * After every epoch the full state (model, optimiser, scheduler, CPU and CUDA RNG,
   history) goes to a resume file beside the output; a rerun continues from the last
   finished epoch if the file was written for the same data, architecture and training
@@ -22,6 +25,7 @@ import hashlib
 import logging
 import math
 import os
+import pickle
 import sys
 import time
 from collections.abc import Callable, Mapping
@@ -143,6 +147,52 @@ def _atomic_torch_save(obj: Any, path: Path) -> None:
         torch.save(obj, tmp)
 
 
+# Exact types: subclasses (numpy.float64 is a float, Snakemake's Namedlist a list) pickle
+# as their own class, which weights_only refuses.
+_PLAIN = {str, int, float, bool, type(None)}
+
+
+def check_plain(value: Any, where: str) -> None:
+    """Raise ``TypeError`` naming the key if ``value`` holds anything but tensors and plain
+    types (str, int, float, bool, None, and lists, tuples and dicts of them with str or int
+    keys): what :func:`load_checkpoint` reads back with ``weights_only=True``."""
+    if type(value) is dict:
+        for key, item in value.items():
+            if type(key) not in (str, int):
+                raise TypeError(f"{where} has a key {key!r} of type {type(key).__name__}")
+            check_plain(item, f"{where}[{key!r}]")
+    elif type(value) in (list, tuple):
+        for i, item in enumerate(value):
+            check_plain(item, f"{where}[{i}]")
+    elif not (isinstance(value, torch.Tensor) or type(value) in _PLAIN):
+        kind = f"{type(value).__module__}.{type(value).__qualname__}"
+        raise TypeError(
+            f"{where} is a {kind}; a checkpoint stores only tensors and plain types (str, "
+            "int, float, bool, None, lists, tuples, dicts): convert it (torch.from_numpy, "
+            "dataclasses.asdict, float(), list())"
+        )
+
+
+def _load_state(path: Path, what: str, device: torch.device | str = "cpu") -> dict[str, Any]:
+    """The ``what`` (checkpoint or resume file) at ``path`` read with ``weights_only=True``;
+    one holding other objects (which could run code when unpickled) or that torch cannot
+    read raises ``OSError`` naming it."""
+    try:
+        return torch.load(path, map_location=device, weights_only=True)
+    except pickle.UnpicklingError as err:
+        # torch's message is a page of advice; its "WeightsUnpickler error" line says what.
+        lines = [line for line in str(err).splitlines() if "WeightsUnpickler" in line]
+        reason = lines[0].strip() if lines else str(err).splitlines()[0]
+        raise OSError(
+            f"refusing to load {what} {path}: it holds objects other than tensors and plain "
+            f"types, which could run code when loaded ({reason}); delete it to train again "
+            "(DeepPRT checkpoints written before its normalisation was stored as tensors "
+            "hold numpy arrays)"
+        ) from err
+    except Exception as err:
+        raise OSError(f"cannot read {what} {path}: {err}") from err
+
+
 def _check_finite(
     loss: torch.Tensor, what: str, epoch: int, step: int, checkpoint_path, unit: str = "step"
 ) -> None:
@@ -220,8 +270,8 @@ def load_resume(run: _Run, path: Path, key: str) -> None:
     if not path.is_file():
         return
     try:
-        state = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as err:  # a torn or foreign file: start afresh rather than fail
+        state = _load_state(path, "resume file")
+    except OSError as err:  # a torn or foreign file: start afresh rather than fail
         log.warning("discarding unreadable resume file %s (%s)", path, err)
         path.unlink()
         return
@@ -312,7 +362,8 @@ def fit(
         checkpoint_path: final checkpoint (``torch.save`` dict with ``model`` = the weights
             of the best validation epoch, ``last_model``, ``config``, ``history``, ``extra``).
         log_path: tidy CSV of losses, columns ``epoch, split, metric, value``.
-        extra_state: stored under ``extra`` in the checkpoint (e.g. target normalisation).
+        extra_state: stored under ``extra`` in the checkpoint (e.g. target normalisation);
+            tensors and plain types only (:func:`check_plain`, checked before training).
         adversary: optional discriminator, trained after every model step and stored in
             the checkpoint as ``adversary``.
         data_key: a fingerprint of the training data (e.g. :func:`neurender.io.checksum`
@@ -324,6 +375,7 @@ def fit(
     Returns:
         The loss history as a tidy data frame.
     """
+    check_plain(dict(extra_state or {}), f"extra_state of {checkpoint_path}")
     device = resolve_device(config.device, config.threads)
     model.to(device)
     optimizer = torch.optim.Adam(
@@ -415,11 +467,10 @@ def epochs_trained(path: str | Path) -> int:
 
 
 def load_checkpoint(path: str | Path, device: torch.device | str = "cpu") -> dict[str, Any]:
-    """Load a checkpoint written by :func:`fit`, naming the file on failure."""
+    """Load a checkpoint written by :func:`fit` (``weights_only=True``), naming the file on
+    failure: ``FileNotFoundError`` if missing, ``OSError`` if unreadable or if it holds
+    objects other than tensors and plain types."""
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"checkpoint {p} does not exist")
-    try:
-        return torch.load(p, map_location=device, weights_only=False)
-    except Exception as err:
-        raise OSError(f"cannot read checkpoint {p}: {err}") from err
+    return _load_state(p, "checkpoint", device)

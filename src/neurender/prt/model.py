@@ -84,8 +84,10 @@ class Normalisation:
         """Network outputs ``(F, C, n, n)`` to transfer."""
         return values * self.t_scale + self.t_offset
 
-    def state(self) -> dict[str, np.ndarray]:
-        return dataclasses.asdict(self)
+    def state(self) -> dict[str, torch.Tensor]:
+        """The arrays as tensors (dtype kept), what a checkpoint stores; ``Normalisation(
+        **{k: np.asarray(v) for k, v in state.items()})`` gives this one back."""
+        return {k: torch.from_numpy(np.asarray(v)) for k, v in dataclasses.asdict(self).items()}
 
 
 def build_network(out_channels: int, widths: list[int], blocks: int) -> ResUNet:

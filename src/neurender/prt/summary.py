@@ -6,9 +6,8 @@ import math
 from pathlib import Path
 
 import pandas as pd
-import torch
 
-from neurender import io
+from neurender import io, train
 from neurender.nn.unet import count_parameters
 from neurender.prt import MATERIALS
 from neurender.prt.model import build_network
@@ -65,8 +64,7 @@ def compression_rows(
         add("paper setting", f"DeepPRT {material}", "parameters", paper_params)
         for obj in objects:
             frames = sum(len(list(Path(d).glob("*.exr"))) for d in frame_dirs[obj][:2])
-            state = torch.load(checkpoints[(obj, material)], map_location="cpu", weights_only=False)
-            params = state["extra"]["parameters"]
+            params = train.load_checkpoint(checkpoints[(obj, material)])["extra"]["parameters"]
             add(obj, f"DeepPRT {material}", "parameters", params)
             add(obj, f"DeepPRT {material}", "compression_ratio", frames * n * n * m / params)
             add(

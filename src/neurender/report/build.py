@@ -72,6 +72,9 @@ def _format_value(v: object) -> str:
 
 
 def _table_html(frame: pd.DataFrame) -> str:
+    """A table whose cells are already HTML (:func:`_format_value`); its headers, plain
+    text such as metric names from the CSV, are escaped here."""
+    frame = frame.rename(columns=lambda c: html.escape(str(c)))
     table = frame.to_html(
         index=False, border=0, classes="table", na_rep="&ndash;", escape=False, justify="left"
     )
