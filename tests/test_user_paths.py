@@ -150,7 +150,8 @@ def test_a_folder_or_fifo_given_as_a_probe_file_is_named_as_such(smoke, tmp_path
         f"prt user entry 'pipe': file {tmp_path / 'sky.exr'} is a named pipe (FIFO), not a file",
         f"prt user entry 'dir': file {tmp_path / 'sun.exr'} is a folder, not a file",
     ]
-    with pytest.raises(FileNotFoundError, match=rf"EXR file {tmp_path / 'sky.exr'} is a named pipe"):
+    pipe = tmp_path / "sky.exr"
+    with pytest.raises(FileNotFoundError, match=rf"EXR file {pipe} is a named pipe"):
         io.read_exr(tmp_path / "sky.exr")
 
 
