@@ -1,5 +1,6 @@
-# Config validation and the helpers every rules file uses; each method's own helpers
-# live in its rules file.
+# Config validation and the helpers every rules file uses. Each method's rules are in
+# workflow/rules/<method>.smk, its names, params and input functions in
+# workflow/rules/helpers/<method>.smk (included before the rules files, see the Snakefile).
 import glob
 from pathlib import Path
 
