@@ -39,6 +39,9 @@ keys and values of the wrong type are errors before any job runs.
 The column `config.yaml` shows the default config's value where it sets one.
 """
 
+#: A key a config does not set, or a schema key without a default.
+_NONE = object()
+
 
 def _value(value: Any) -> str:
     """A value as YAML flow text in a code span (``-`` when there is none)."""
@@ -47,9 +50,6 @@ def _value(value: Any) -> str:
     text = yaml.safe_dump(value, default_flow_style=True, width=10_000, sort_keys=False).strip()
     text = text.removesuffix("...").strip()
     return f"`{text}`"
-
-
-_NONE = object()
 
 
 def _bounds(schema: Mapping[str, Any]) -> str:
