@@ -189,6 +189,7 @@ def _fit(check: Check, device: str, epochs: int, folder: Path, name: str, data=N
         epochs=epochs,
         batch_size=check.batch_size,
         lr=1e-4,
+        lr_schedule="cosine",
         device=device,
         seed=0,
         threads=os.cpu_count() or 1,

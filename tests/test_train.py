@@ -27,8 +27,16 @@ def _loss(model, batch):
     return loss, {"mae": float((model(x) - y).detach().abs().mean())}
 
 
-def _cfg(epochs):
-    return train.TrainConfig(epochs=epochs, batch_size=8, lr=0.05, seed=3, device="cpu")
+def _cfg(epochs, device="cpu", seed=3):
+    return train.TrainConfig(
+        epochs=epochs,
+        batch_size=8,
+        lr=0.05,
+        lr_schedule="cosine",
+        seed=seed,
+        device=device,
+        threads=1,
+    )
 
 
 def test_training_reduces_loss_and_writes_tidy_log(tmp_path):
@@ -120,8 +128,16 @@ def test_adversary_is_trained_after_each_step_and_saved(tmp_path):
 
 def test_train_config_from_stage_picks_training_keys():
     cfg = {"epochs": 3, "lr": 0.01, "widths": [8], "seed": 4, "device": "cpu", "threads": 9}
+    cfg |= {"batch_size": 2, "lr_schedule": "constant"}
     c = train.TrainConfig.from_stage(cfg, threads=2, betas=(0.5, 0.999))
     assert (c.epochs, c.lr, c.seed, c.threads, c.betas) == (3, 0.01, 4, 2, (0.5, 0.999))
+
+
+def test_a_training_key_missing_from_the_stage_is_named_not_defaulted():
+    """The schema holds the defaults: a stage's params without one of its keys fail."""
+    cfg = {"epochs": 3, "lr": 0.01, "seed": 4, "device": "cpu", "lr_schedule": "cosine"}
+    with pytest.raises(KeyError, match=r"\['batch_size'\] missing"):
+        train.TrainConfig.from_stage(cfg, threads=1)
 
 
 def _interrupted_run(tmp_path, cfg, data_key="", epochs_done=1):
@@ -219,7 +235,7 @@ def test_nan_validation_loss_stops_training_naming_epoch_and_batch(tmp_path):
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
     train_set, val_set = _problem()
-    cfg = train.TrainConfig(epochs=3, batch_size=8, lr=0.05, seed=3, device="cuda")
+    cfg = _cfg(3, device="cuda")
     full = _model()
     train.fit(full, train_set, val_set, _loss, cfg, tmp_path / "full.pt", tmp_path / "f.csv")
     _interrupted_run(tmp_path, cfg)
@@ -234,7 +250,7 @@ def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_two_cuda_runs_with_one_seed_are_identical(tmp_path):
     train_set, val_set = _problem()
-    cfg = train.TrainConfig(epochs=2, batch_size=8, lr=0.05, seed=5, device="cuda")
+    cfg = _cfg(2, device="cuda", seed=5)
     runs = []
     for name in ("a", "b"):
         model = _model()

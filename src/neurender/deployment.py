@@ -5,22 +5,36 @@ columns of :data:`COLUMNS`: its ONNX file (the network with its normalisation, c
 against PyTorch before it was written: :func:`neurender.nn.inference.export_onnx`), the
 input resolution it was exported and timed at (the config's), its parameters, the file's
 size, the largest |ONNX Runtime - PyTorch| of that check, and the median milliseconds of
-one frame (batch one) by ONNX Runtime and by PyTorch with the same ``threads``
-(:func:`neurender.nn.inference.engine_milliseconds`), and the hardware they ran on
-(:func:`neurender.timing.hardware`). A time that was not measured (ONNX Runtime where a
-network ran on a GPU) is NaN.
+one frame (batch one) by ONNX Runtime and by PyTorch with the same ``threads``, and the
+hardware they ran on (:func:`neurender.timing.hardware`). A time that was not measured
+(ONNX Runtime where a network ran on a GPU) is NaN.
+
+:func:`measure` is the whole measurement of a network exported at deployment (export,
+check, both engines timed, one row: metaballs, NDR); :func:`deployment_row` the row of a
+network exported and timed elsewhere (DeepPRT exports when it trains and times its whole
+prediction, inputs and decoding included, by each engine it holds).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
+import torch
+from torch import nn
 
 from neurender import io
-from neurender.nn.inference import onnx_metadata
+from neurender.nn.inference import engine_milliseconds, export_onnx, onnx_metadata
+from neurender.nn.unet import count_parameters
+from neurender.timing import hardware
 
+#: The engines timed, by the column of their milliseconds per frame.
+ENGINE_COLUMNS = {
+    "onnxruntime": "onnxruntime_ms_per_frame",
+    "pytorch": "pytorch_ms_per_frame",
+}
 COLUMNS = (
     "method",
     "network",
@@ -29,22 +43,20 @@ COLUMNS = (
     "onnx_file",
     "onnx_bytes",
     "max_abs_diff_vs_pytorch",
-    "onnxruntime_ms_per_frame",
-    "pytorch_ms_per_frame",
+    *ENGINE_COLUMNS.values(),
     "threads",
     "hardware",
 )
 
 
-def onnx_file_facts(path: str | Path) -> dict[str, float]:
-    """``onnx_bytes`` and ``max_abs_diff_vs_pytorch`` (the export's check, stored in the
-    file's metadata) of an ONNX file written by :func:`neurender.nn.inference.export_onnx`."""
+def onnx_check_error(path: str | Path) -> float:
+    """The largest |ONNX Runtime - PyTorch| of the export's check, stored in the metadata
+    of an ONNX file written by :func:`neurender.nn.inference.export_onnx`."""
     key = "neurender.max_abs_diff_vs_pytorch"
     metadata = onnx_metadata(path)
     if key not in metadata:
         raise ValueError(f"ONNX file {path} has no {key} metadata: export it with export_onnx")
-    size = Path(path).stat().st_size
-    return {"onnx_bytes": size, "max_abs_diff_vs_pytorch": float(metadata[key])}
+    return float(metadata[key])
 
 
 def deployment_row(
@@ -52,31 +64,63 @@ def deployment_row(
     network: str,
     onnx_file: str | Path,
     size: tuple[int, int],
-    measured: Mapping[str, float],
+    parameters: int,
+    max_abs_diff: float,
+    milliseconds: Mapping[str, float],
     threads: int,
     hardware: str,
 ) -> dict:
-    """One row of the table (:data:`COLUMNS`).
+    """One row of the table (:data:`COLUMNS`); ``onnx_bytes`` is the file's size.
 
     Args:
         size: the input's ``(height, width)`` in pixels.
-        measured: ``parameters``, ``onnx_bytes``, ``max_abs_diff_vs_pytorch``,
-            ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch`` (as
-            :func:`neurender.ndr.deploy.export_variant` returns them).
+        max_abs_diff: the export check's largest |ONNX Runtime - PyTorch|.
+        milliseconds: median milliseconds of one frame by engine (the keys of
+            :data:`ENGINE_COLUMNS`); an engine not timed is NaN.
     """
+    unknown = sorted(set(milliseconds) - set(ENGINE_COLUMNS))
+    if unknown:
+        raise KeyError(
+            f"{network}: times of unknown engines {unknown}; expected {list(ENGINE_COLUMNS)}"
+        )
+    times = {c: float(milliseconds.get(e, math.nan)) for e, c in ENGINE_COLUMNS.items()}
     return {
         "method": method,
         "network": network,
         "resolution": f"{size[1]}x{size[0]}",
-        "parameters": int(measured["parameters"]),
+        "parameters": int(parameters),
         "onnx_file": str(onnx_file),
-        "onnx_bytes": int(measured["onnx_bytes"]),
-        "max_abs_diff_vs_pytorch": float(measured["max_abs_diff_vs_pytorch"]),
-        "onnxruntime_ms_per_frame": float(measured["ms_per_frame_onnxruntime"]),
-        "pytorch_ms_per_frame": float(measured["ms_per_frame_pytorch"]),
+        "onnx_bytes": Path(onnx_file).stat().st_size,
+        "max_abs_diff_vs_pytorch": float(max_abs_diff),
+        **times,
         "threads": int(threads),
         "hardware": hardware,
     }
+
+
+def measure(
+    method: str,
+    network: str,
+    graph: nn.Module,
+    examples: tuple[torch.Tensor, ...],
+    onnx_out: str | Path,
+    threads: int,
+    *,
+    atol: float,
+    rtol: float = 0.0,
+    input_names: tuple[str, ...] = ("x",),
+) -> dict:
+    """The deployment row of ``graph`` (an eval-mode CPU module: the trained network with
+    its normalisation): exported to ``onnx_out`` and checked on ``examples`` (each input
+    ``(B >= 2, C, H, W)``, named ``input_names``; allowed difference ``atol + rtol *
+    max|y|``, :func:`neurender.nn.inference.export_onnx`), then both engines timed on the
+    first example on the CPU with ``threads`` threads."""
+    error = export_onnx(graph, examples, onnx_out, atol=atol, input_names=input_names, rtol=rtol)
+    ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in examples), threads)
+    size = tuple(examples[0].shape[-2:])
+    where = hardware(threads, "cpu")
+    parameters = count_parameters(graph)
+    return deployment_row(method, network, onnx_out, size, parameters, error, ms, threads, where)
 
 
 def deployment_table(rows: list[dict]) -> pd.DataFrame:

@@ -1,13 +1,14 @@
 """The bridge from a Snakemake rule to its job function.
 
-Every rule of ``workflow/rules/*.smk`` names its files (``input:``, ``output:``), passes the
-config keys it reads as one ``params: cfg=...`` dict (wildcard values included), and runs a
-one-line shim ``workflow/scripts/<rule>.py``::
+Every rule of ``workflow/rules/<method>.smk`` names its files (``input:``, ``output:``),
+passes the config keys it reads as one ``params: cfg=...`` dict (wildcard values included;
+built by the method's ``workflow/rules/helpers/<method>.smk``), and runs a one-line shim
+``workflow/scripts/<rule>.py``, e.g. ``workflow/scripts/prt_train.py``::
 
     from neurender.jobs import run
     from neurender.prt import jobs
 
-    run(snakemake, jobs.train)
+    run(snakemake, jobs.prt_train)
 
 Each method's ``jobs.py`` holds one function per rule with the signature of :data:`Job`,
 so a job can be called from Python (tests, notebooks) with plain dicts exactly as the

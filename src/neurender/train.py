@@ -57,25 +57,34 @@ class Adversary:
     loss_fn: Callable[[torch.nn.Module, Any, Any], tuple[torch.Tensor, Mapping[str, float]]]
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(kw_only=True)
 class TrainConfig:
-    epochs: int = 10  # passes over the training set
-    batch_size: int = 5
-    lr: float = 1e-3  # Adam learning rate
-    lr_schedule: str = "cosine"  # "constant" or "cosine" (decay to lr_min_ratio * lr)
+    """A training run's settings. The fields without a default are config keys (a method's
+    ``*_model`` section, ``seed``, ``device``) or the rule's threads, whose defaults live in
+    the schema only; the others are the loop's own constants."""
+
+    epochs: int  # passes over the training set
+    batch_size: int
+    lr: float  # Adam learning rate
+    lr_schedule: str  # "constant" or "cosine" (decay to lr_min_ratio * lr)
     lr_min_ratio: float = 0.05
     weight_decay: float = 0.0
     betas: tuple[float, float] = (0.9, 0.999)
-    seed: int = 0
-    device: str = "auto"  # "auto", "cpu", "cuda", "cuda:1", ...
-    threads: int = 1  # torch CPU threads (the Snakemake rule's threads)
+    seed: int
+    device: str  # "auto", "cpu", "cuda", "cuda:1", ...
+    threads: int  # torch CPU threads (the Snakemake rule's threads)
 
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> TrainConfig:
-        names = {f.name for f in dataclasses.fields(cls)}
+        fields = dataclasses.fields(cls)
+        names = {f.name for f in fields}
         unknown = sorted(set(values) - names)
         if unknown:
             raise KeyError(f"unknown training keys {unknown}; expected some of {sorted(names)}")
+        required = {f.name for f in fields if f.default is dataclasses.MISSING}
+        missing = sorted(required - set(values))
+        if missing:
+            raise KeyError(f"training keys {missing} missing (their defaults are the schema's)")
         kwargs = dict(values)
         if "betas" in kwargs:
             kwargs["betas"] = tuple(kwargs["betas"])

@@ -61,7 +61,7 @@ def test_torus_corners_at_the_cut_vertex():
     are copies of the cut's branch vertices."""
     vertices, faces = _pv(pv.ParametricTorus(1.0, 0.35, u_res=40, v_res=16))
     d = disk.to_disk(vertices, faces, "torus")
-    loop, bc = gi.square_boundary(d.vertices, d.faces, anchors=d.anchors)
+    loop, bc = gi.pinned_boundary(d.vertices, d.faces, anchors=d.anchors)
     at_corner = loop[np.isin(bc, [0.0, 1.0]).all(1)]
     assert len(at_corner) == 4 and d.anchors[at_corner].all()
 

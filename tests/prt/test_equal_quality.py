@@ -30,7 +30,7 @@ def shipped(tmp_path_factory):
 
     train, val = split(4), split(2)
     cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
-    cfg |= {"lr": 1e-3, "residual_targets": True, "device": "cpu"}
+    cfg |= {"lr": 1e-3, "lr_schedule": "cosine", "residual_targets": True, "device": "cpu"}
     checkpoint, onnx_file = tmp / "net.pt", tmp / "net.onnx"
     train_deepprt(train, val, "diffuse", cfg, 1, str(checkpoint), str(tmp / "loss.csv"))
     export_deepprt(checkpoint, val, onnx_file)

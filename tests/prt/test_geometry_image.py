@@ -29,10 +29,10 @@ def test_paraboloid_geometry_image_reconstructs_surface():
     assert err["mean"] < 5e-3 and err["max"] < 0.05
 
 
-def test_boundary_square_corners_and_perimeter():
+def test_perimeter_points_hit_the_corners_and_space_by_arc_length():
     angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     v = np.stack([np.cos(angle), np.sin(angle), 0 * angle], 1)
-    sq = gi.boundary_square(v, np.arange(40))
+    sq = gi.perimeter_points(v, np.arange(40))
     # on the perimeter, four corners hit exactly, uniform spacing by arc length
     on_edge = np.minimum.reduce([sq[:, 0], 1 - sq[:, 0], sq[:, 1], 1 - sq[:, 1]])
     np.testing.assert_allclose(on_edge, 0, atol=1e-12)
@@ -63,7 +63,7 @@ def test_third_party_disk_with_boundary_ears_maps_without_flips():
     objects.check_disk_topology(v, f, "hills")
     _, method, flipped = gi.harmonic_square_map(v, f)
     assert (method, flipped) == ("uniform", 1)  # reproduces the failure without the repair
-    loop, bc = gi.square_boundary(v, f)
+    loop, bc = gi.pinned_boundary(v, f)
     assert len(gi.same_side_edges(f, loop, bc)) == 1
     g = gi.build_geometry_image(v, f, 64)
     assert g.flipped == 0 and g.split_edges == 1

@@ -92,7 +92,7 @@ def test_trained_deepprt_exports_and_both_engines_agree(tmp_path, tensorboard_st
     train = _split(rng.uniform(0, 1, (6, 2)), rng, affine=(w, b))
     val = _split(rng.uniform(0, 1, (3, 2)), rng, affine=(w, b))
     cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
-    cfg |= {"lr": 1e-3, "residual_targets": True, "device": "cpu"}
+    cfg |= {"lr": 1e-3, "lr_schedule": "cosine", "residual_targets": True, "device": "cpu"}
     checkpoint, onnx_file = tmp_path / "net.pt", tmp_path / "net.onnx"
     board = tmp_path / "tensorboard" / "run.json"
     loss_csv = str(tmp_path / "loss.csv")

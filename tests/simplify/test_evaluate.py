@@ -43,10 +43,10 @@ def test_targets_compare_ours_with_both_baselines():
     loss = pd.DataFrame(
         {"case": "head", "step": [0, 1], "metric": "seconds", "value": [30.0, 30.0]}
     )
-    two = summary.with_timings(stats, [loss], 30.0, optimise_threads=2)
+    two = summary.with_timings(stats, [loss], 30.0, optimise_threads=2, cores=2)
     assert two.set_index("quantity")["value"]["stage_seconds"] == 150
     # A one-thread optimisation holds half the cores: the other case runs beside it.
-    stats = summary.with_timings(stats, [loss], 30.0, optimise_threads=1)
+    stats = summary.with_timings(stats, [loss], 30.0, optimise_threads=1, cores=2)
     stats = stats.set_index("quantity")["value"]
     assert stats["optimise_seconds"] == 60 and stats["stage_seconds"] == 120
     targets = summary.targets(pd.DataFrame(rows), stats.reset_index()).set_index("check")

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import trimesh
 
 from neurender import io
@@ -23,17 +24,27 @@ def test_export_writes_exactly_its_declared_files_and_the_obj_reloads(tmp_path):
     np.testing.assert_array_equal(texture, io.to_uint8(srgb(albedo)))
 
 
-def test_lowpoly_keeps_the_map_to_the_assets_frame_only_when_given(tmp_path):
+def test_lowpoly_keeps_the_albedo_and_the_map_to_the_assets_frame_only_when_given(tmp_path):
     box = trimesh.creation.box()
     low = mesh_ops.uv_atlas(np.asarray(box.vertices), np.asarray(box.faces), 16)
-    formats.save_lowpoly(tmp_path / "builtin.npz", low)
+    formats.save_lowpoly(tmp_path / "builtin.npz", low, 0.8)
     assert "to_asset" not in io.load_npz(tmp_path / "builtin.npz")
     np.testing.assert_array_equal(formats.load_to_asset(tmp_path / "builtin.npz"), np.eye(4))
+    assert formats.load_albedo(tmp_path / "builtin.npz") == 0.8
     to_asset = np.diag([2.0, 2.0, 2.0, 1.0])
     to_asset[:3, 3] = [1.0, -2.0, 3.0]
-    formats.save_lowpoly(tmp_path / "user.npz", low, to_asset)
+    formats.save_lowpoly(tmp_path / "user.npz", low, None, to_asset)
     np.testing.assert_array_equal(formats.load_to_asset(tmp_path / "user.npz"), to_asset)
     np.testing.assert_array_equal(formats.load_lowpoly(tmp_path / "user.npz").uvs, low.uvs)
+    assert formats.load_albedo(tmp_path / "user.npz") is None  # the colour varies
+
+
+def test_a_lowpoly_file_without_its_albedo_is_refused_by_name(tmp_path):
+    box = trimesh.creation.box()
+    low = mesh_ops.uv_atlas(np.asarray(box.vertices), np.asarray(box.faces), 16)
+    io.save_npz(tmp_path / "old.npz", positions=low.positions, faces=low.faces)
+    with pytest.raises(ValueError, match="old.npz has no albedo.*simplify_prepare"):
+        formats.load_albedo(tmp_path / "old.npz")
 
 
 def test_view_stacks_and_textures_round_trip(tmp_path):

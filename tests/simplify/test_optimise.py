@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import trimesh
 
 from neurender import mitsuba_setup
@@ -18,6 +19,25 @@ def test_laplacian_decay_keeps_the_papers_schedule_shape():
     for steps in (100, 1000):
         k = optimise.laplacian_decay(steps)
         assert np.isclose(k * (0.2 * steps) ** 2, optimise.PAPER_DECAY_K * 2000**2)
+
+
+def test_the_config_takes_every_value_from_the_stage_and_names_a_missing_key():
+    """No optimiser setting has a default of its own: the schema's are the only ones."""
+    cfg = dict(steps=3, batch=2, spp=4, resolution=16, lr_positions=1e-3, lr_textures=1e-2)
+    cfg |= dict(lr_final_fraction=0.05, laplacian_scale=0.5, laplacian_min_fraction=0.1)
+    cfg |= dict(intensity=70.0, seed=1, camera_distance=6.5)  # a key it does not read
+    settings = optimise.OptimiseConfig.from_stage(cfg, optimise_albedo=True)
+    assert (settings.width, settings.batch, settings.laplacian_scale) == (16, 2, 0.5)
+    assert settings.optimise_albedo and settings.optimise_positions
+    del cfg["laplacian_min_fraction"], cfg["batch"]
+    with pytest.raises(KeyError, match=r"\['batch', 'laplacian_min_fraction'\]"):
+        optimise.OptimiseConfig.from_stage(cfg)
+
+
+def test_references_need_one_image_per_view():
+    one = views.sample_views(1, 0, "train", 4.0, 40.0, (-30, 30), (-30, 30), 3.0, 60.0)
+    with pytest.raises(ValueError, match="2 reference images for 1 views"):
+        optimise.References(one, np.zeros((2, 4, 4, 4), np.float32))
 
 
 def test_latent_mesh_normals_and_laplacian(mitsuba):
@@ -63,12 +83,18 @@ def test_optimisation_recovers_a_normal_map(mitsuba, baked_plane):
         lr_positions=0.0,
         lr_textures=0.05,
         lr_final_fraction=0.2,
+        laplacian_scale=0.25,
+        laplacian_min_fraction=0.02,
         intensity=20.0,
         seed=0,
         optimise_positions=False,
     )
     positions, normal_map, albedo, loss = optimise.optimise(
-        mi, dr, low, flat, 0.8, references, train_views, cfg
+        mi,
+        dr,
+        optimise.Start(low, flat, 0.8),
+        optimise.References(train_views, references),
+        cfg,
     )
     assert albedo is None and np.allclose(positions, low.positions)
     covered = np.zeros(truth.shape[:2], bool)

@@ -42,14 +42,15 @@ def test_face_coloured_parts_keep_one_colour_per_face():
 def test_the_metaball_reference_carries_the_field_colour_per_vertex():
     cfg = {"metaball_count": 3, "metaball_grid": 16, "metaball_triangles": 50, "seed": 0}
     asset = assets.load("metaballs", cfg)
-    (primitive,) = viewer.reference_primitives(asset, None)
+    assert asset.albedo is None  # the balls' colours vary
+    (primitive,) = viewer.reference_primitives(asset)
     face, bary = viewer.vertex_corners(asset.faces, len(asset.vertices))
     np.testing.assert_allclose(
         primitive.colours, np.clip(asset.colour_fn(asset.vertices, face, bary), 0, 1)
     )
     assert primitive.colours.std(0).max() > 0.01  # the balls' colours differ
     (head,) = viewer.reference_primitives(
-        assets.load("head", {"head_vertices": 200, "head_triangles": 40, "seed": 0}), 0.8
+        assets.load("head", {"head_vertices": 200, "head_triangles": 40, "seed": 0})
     )
     assert head.base_colour == (0.8, 0.8, 0.8) and head.colours is None
 
@@ -114,6 +115,6 @@ def test_the_viewer_and_figure_jobs_show_reference_and_variants(bumpy_glb, stage
 def test_a_reference_over_the_budget_is_shown_decimated(monkeypatch):
     monkeypatch.setattr(viewer, "MAX_REFERENCE_TRIANGLES", 100)
     asset = assets.load("head", {"head_vertices": 200, "head_triangles": 40, "seed": 0})
-    (primitive,) = viewer.reference_primitives(asset, 0.8)
+    (primitive,) = viewer.reference_primitives(asset)
     assert len(primitive.faces) <= 100 < len(asset.faces)
     assert primitive.base_colour == (0.5, 0.5, 0.5)

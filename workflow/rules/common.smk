@@ -1,6 +1,8 @@
-# Config validation and the helpers every rules file uses; each method's own helpers are in
-# helpers/<method>.smk, what the rest of the workflow knows of it in its record
-# (src/neurender/<package>/method.py, listed in neurender.methods).
+# Config validation and the helpers every rules file uses. Each method's rules are in
+# workflow/rules/<method>.smk, its names, params and input functions in
+# workflow/rules/helpers/<method>.smk (included before the rules files, see the Snakefile),
+# what the rest of the workflow knows of it in its record (src/neurender/<package>/method.py,
+# listed in neurender.methods).
 from snakemake.utils import validate
 
 import neurender.config

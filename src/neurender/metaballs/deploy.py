@@ -12,15 +12,13 @@ uses, so a batch of several images gives each image's own result.
 from __future__ import annotations
 
 import copy
-from pathlib import Path
 
 import torch
 from torch import nn
 
+from neurender.deployment import measure
 from neurender.metaball import Scene
 from neurender.metaballs.renderer import MetaballRenderer
-from neurender.nn.inference import engine_milliseconds, export_onnx
-from neurender.nn.unet import count_parameters
 
 #: Scenes an export is checked on: the first of a split (the first twice if it has one).
 EXAMPLES = 2
@@ -63,19 +61,11 @@ def example_inputs(renderer: MetaballRenderer, scenes: dict[int, Scene]) -> torc
     return torch.stack([renderer.inputs(first[i % len(first)]) for i in range(EXAMPLES)]).cpu()
 
 
-def export_generator(
-    generator: nn.Module, image_statistics: bool, inputs: torch.Tensor, onnx_out: str, threads: int
-) -> dict[str, float]:
-    """Export one trained generator (checked on ``inputs`` ``(B >= 2, C, W, W)``) and time
-    both engines on one image: ``parameters``, ``onnx_bytes``, ``max_abs_diff_vs_pytorch``,
-    ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch``."""
-    graph = GeneratorGraph(generator.cpu(), image_statistics)
-    error = export_onnx(graph, inputs, onnx_out, atol=1e-3)
-    ms = engine_milliseconds(graph, onnx_out, (inputs[:1],), threads)
-    return {
-        "parameters": count_parameters(generator),
-        "onnx_bytes": Path(onnx_out).stat().st_size,
-        "max_abs_diff_vs_pytorch": error,
-        "ms_per_frame_onnxruntime": ms["onnxruntime"],
-        "ms_per_frame_pytorch": ms["pytorch"],
-    }
+def deploy_generator(
+    variant: str, renderer: MetaballRenderer, inputs: torch.Tensor, onnx_out: str, threads: int
+) -> dict:
+    """The deployment row of one trained generator (:func:`neurender.deployment.measure`):
+    its graph exported, checked on ``inputs`` ``(B >= 2, C, W, W)`` and timed by both
+    engines on one image."""
+    graph = GeneratorGraph(renderer.model.cpu(), renderer.image_statistics)
+    return measure("metaballs", variant, graph, (inputs,), onnx_out, threads, atol=1e-3)

@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from neurender import io, viewer_data
-from neurender.deployment import deployment_row, deployment_table
+from neurender.deployment import deployment_table
 from neurender.metaballs import (
     DEMO_VARIANTS,
     VARIANTS,
@@ -31,7 +31,6 @@ from neurender.metaballs import (
 )
 from neurender.metaballs.renderer import MetaballRenderer, load_renderers
 from neurender.metaballs.viewer import demo_view
-from neurender.timing import hardware
 
 log = logging.getLogger(__name__)
 
@@ -120,18 +119,13 @@ def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) ->
     ``threads`` threads (:mod:`neurender.metaballs.deploy`); one row per variant in
     ``table`` (:mod:`neurender.deployment`)."""
     scenes = data.read_scenes(inputs["test_balls"])
-    where = hardware(threads, "cpu")
     rows = []
     for variant, checkpoint, onnx_out in zip(
         VARIANTS, inputs["checkpoints"], outputs["onnx"], strict=True
     ):
         renderer = MetaballRenderer(checkpoint, "cpu", threads)
         x = deploy.example_inputs(renderer, scenes)
-        measured = deploy.export_generator(
-            renderer.model, renderer.image_statistics, x, onnx_out, threads
-        )
-        size = tuple(x.shape[-2:])
-        rows.append(deployment_row("metaballs", variant, onnx_out, size, measured, threads, where))
+        rows.append(deploy.deploy_generator(variant, renderer, x, onnx_out, threads))
     io.write_csv(outputs["table"], deployment_table(rows))
 
 

@@ -9,18 +9,17 @@ map's SH features (:func:`neurender.ndr.buffers.light_features`). Output: ``I_R`
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import torch
 from torch import nn
 
+from neurender.deployment import measure
 from neurender.ndr.buffers import NDRDataset, channel_count
 from neurender.ndr.model import NDRModel
-from neurender.nn.inference import engine_milliseconds, export_onnx
-from neurender.nn.unet import count_parameters
 
 #: Samples an export is checked on: the first of a split (the first twice if it has one).
 EXAMPLES = 2
+#: The graph's input names (see the module docstring).
+INPUTS = ("buffers", "light")
 
 
 def graph_groups(model: NDRModel) -> tuple[str, ...]:
@@ -58,23 +57,15 @@ def example_batch(data: NDRDataset) -> dict[str, torch.Tensor]:
     return {"light": data.light[index], **{g: v[index] for g, v in data.buffers.items()}}
 
 
-def export_variant(
-    model: NDRModel, batch: dict[str, torch.Tensor], onnx_out: str, threads: int
-) -> dict[str, float]:
-    """Export one trained variant (checked on ``batch``, at least two samples) and time
-    both engines on its first sample: ``parameters``, ``onnx_bytes``,
-    ``max_abs_diff_vs_pytorch``, ``ms_per_frame_onnxruntime``, ``ms_per_frame_pytorch``."""
+def deploy_variant(
+    variant: str, model: NDRModel, batch: dict[str, torch.Tensor], onnx_out: str, threads: int
+) -> dict:
+    """The deployment row of one trained variant (:func:`neurender.deployment.measure`):
+    its graph exported, checked on ``batch`` (at least two samples) and timed by both
+    engines on its first sample."""
     graph = NDRGraph(model.cpu())
     inputs = graph_inputs(model, batch)
     # I_R is linear HDR radiance (above 100 where a sun reflects): the check scales with it.
-    error = export_onnx(
-        graph, inputs, onnx_out, atol=1e-3, input_names=("buffers", "light"), rtol=1e-4
+    return measure(
+        "ndr", variant, graph, inputs, onnx_out, threads, atol=1e-3, rtol=1e-4, input_names=INPUTS
     )
-    ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in inputs), threads)
-    return {
-        "parameters": count_parameters(model),
-        "onnx_bytes": Path(onnx_out).stat().st_size,
-        "max_abs_diff_vs_pytorch": error,
-        "ms_per_frame_onnxruntime": ms["onnxruntime"],
-        "ms_per_frame_pytorch": ms["pytorch"],
-    }

@@ -15,7 +15,7 @@ import pandas as pd
 import torch
 
 from neurender import io, train, viewer_data
-from neurender.deployment import deployment_row, deployment_table
+from neurender.deployment import deployment_table
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.ndr import (
     KINDS,
@@ -36,7 +36,6 @@ from neurender.ndr.model import SHADING_INPUT, load_model
 from neurender.ndr.training import train_variant
 from neurender.ndr.viewer import relight_view
 from neurender.tables import target_table
-from neurender.timing import hardware
 
 log = logging.getLogger(__name__)
 
@@ -132,7 +131,6 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     back under the same load, and re-exporting all of them costs little beside retraining
     the one variant that triggers it."""
     cpu = torch.device("cpu")
-    where = hardware(threads, cpu)
     examples, rows = {}, []
     for variant, onnx_out in zip(params["variants"], outputs["onnx"], strict=True):
         split = split_name(VARIANTS[variant].data, "test")
@@ -140,9 +138,7 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
             files = _split_files(inputs, split)
             examples[split] = deploy.example_batch(NDRDataset.from_files(files, 0, deploy.EXAMPLES))
         model = load_model(inputs[f"checkpoint_{variant}"], cpu)
-        measured = deploy.export_variant(model, examples[split], onnx_out, threads)
-        size = tuple(examples[split]["N"].shape[-2:])
-        rows.append(deployment_row("ndr", variant, onnx_out, size, measured, threads, where))
+        rows.append(deploy.deploy_variant(variant, model, examples[split], onnx_out, threads))
     io.write_csv(outputs["table"], deployment_table(rows))
 
 

@@ -18,7 +18,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from neurender.deployment import deployment_row, onnx_file_facts
+from neurender.deployment import deployment_row, onnx_check_error
 from neurender.prt import transfer
 from neurender.prt.frames import Split, ray_offset
 from neurender.prt.model import DeepPRT
@@ -51,19 +51,16 @@ def deployment_rows(
     a GPU) at the resolution of the ``test`` frames."""
     rows = []
     for material, net in nets.items():
-        measured = {
-            "parameters": net.parameters,
-            **onnx_file_facts(onnx_files[material]),
-            "ms_per_frame_onnxruntime": 1000 * engine_s[material].get("onnxruntime", math.nan),
-            "ms_per_frame_pytorch": 1000 * engine_s[material]["pytorch"],
-        }
+        onnx_file = onnx_files[material]
         rows.append(
             deployment_row(
                 "prt",
                 f"{name} {material}",
-                onnx_files[material],
+                onnx_file,
                 test.positions.shape[1:3],
-                measured,
+                net.parameters,
+                onnx_check_error(onnx_file),
+                {engine: 1000 * s for engine, s in engine_s[material].items()},
                 threads,
                 hardware(threads, net.device),
             )

@@ -78,13 +78,14 @@ def resample(
     return out.reshape((n, n) + values.shape[1:])
 
 
-def boundary_square(
+def perimeter_points(
     vertices: np.ndarray,
     loop: np.ndarray,
     uniform_share: float = 0.0,
     corners: list[int] | None = None,
 ) -> np.ndarray:
-    """Map a boundary loop to the unit square's perimeter by arc length, four corners pinned.
+    """Points on the unit square's perimeter for a given boundary loop, by arc length, four
+    corners pinned.
 
     Corners are the loop vertices nearest to arc-length fractions 0, 1/4, 1/2, 3/4; between
     two corners the vertices are spread by arc length along that side.
@@ -146,14 +147,15 @@ def _tutte(faces: np.ndarray, n_vertices: int, b: np.ndarray, bc: np.ndarray) ->
     return uv
 
 
-def square_boundary(
+def pinned_boundary(
     vertices: np.ndarray,
     faces: np.ndarray,
     uniform_share: float = 0.0,
     anchors: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The boundary loop ``(L,)`` of a disk, counter-clockwise like the square, and its
-    points on the square ``(L, 2)`` (:func:`boundary_square`).
+    """Where a disk's boundary is pinned on the square: its boundary loop ``(L,)``, found,
+    started and oriented counter-clockwise like the square, and the loop's points on the
+    perimeter ``(L, 2)`` (:func:`perimeter_points`).
 
     ``anchors`` ``(V,)`` marks the boundary vertices where the cut of a closed surface
     branches or ends (:class:`neurender.prt.disk.DiskMesh`): the loop then starts at one
@@ -176,7 +178,7 @@ def square_boundary(
     corners = None
     if marked.sum() >= 4:
         corners = _anchored_corners(vertices, loop, np.nonzero(anchors[loop])[0])
-    return loop, boundary_square(vertices, loop, uniform_share, corners)
+    return loop, perimeter_points(vertices, loop, uniform_share, corners)
 
 
 def _anchored_corners(
@@ -215,12 +217,12 @@ def map_to_square(
 
 def harmonic_square_map(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, str, int]:
     """Harmonic map of a disk-topology mesh onto the unit square (:func:`map_to_square`),
-    boundary by arc length (:func:`square_boundary`).
+    boundary by arc length (:func:`pinned_boundary`).
 
     Returns:
         ``uv`` ``(V, 2)``, the weights used, and the number of flipped triangles left.
     """
-    loop, bc = square_boundary(vertices, faces)
+    loop, bc = pinned_boundary(vertices, faces)
     return map_to_square(vertices, faces, loop, bc)
 
 
@@ -336,11 +338,11 @@ def build_geometry_image(
         faces: ``(F, 3)`` int triangles.
         n: grid side.
         anchors: ``(V,)`` bool, boundary vertices preferred as corners
-            (:func:`square_boundary`).
+            (:func:`pinned_boundary`).
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    loop, bc = square_boundary(vertices, faces, anchors=anchors)
+    loop, bc = pinned_boundary(vertices, faces, anchors=anchors)
     uv, method, flipped = map_to_square(vertices, faces, loop, bc)
     mapped_vertices, mapped_faces = vertices, faces
     parent, corners, split = np.arange(len(faces)), None, np.zeros((0, 2), np.int64)
@@ -348,7 +350,7 @@ def build_geometry_image(
         # Boundary edges of zero length (repeated vertices) would share a point of the square.
         seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
         if (seg <= 1e-12 * seg.sum()).any():
-            loop, bc = square_boundary(vertices, faces, 0.05, anchors)
+            loop, bc = pinned_boundary(vertices, faces, 0.05, anchors)
         split = same_side_edges(faces, loop, bc)
         mapped_vertices, mapped_faces, parent, corners = split_edges(vertices, faces, split)
         uv, method, flipped = map_to_square(mapped_vertices, mapped_faces, loop, bc)

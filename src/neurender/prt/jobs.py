@@ -1,7 +1,12 @@
-"""DeepPRT's jobs, one per rule of ``workflow/rules/prt.smk``.
+"""DeepPRT's jobs, one per rule of ``workflow/rules/prt.smk`` (whose params and input
+functions are in ``workflow/rules/helpers/prt.smk``).
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
-``(inputs, outputs, params, threads)``. File formats: :mod:`neurender.prt.frames`.
+``(inputs, outputs, params, threads)``. Their files are under ``results/prt/``:
+``probes/`` (the light probes and their SH), ``<object>/`` (geometry image, sequence,
+one folder of frames and a manifest per split, networks, scores, deployment rows) and
+``figures/``. Formats of the probes' SH, the sequences and the frames:
+:mod:`neurender.prt.frames`; of the deployment rows: :mod:`neurender.deployment`.
 """
 
 from __future__ import annotations
@@ -154,9 +159,12 @@ def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
         sequence, test = _user_sequence(inputs, name)
         n = gim["rest"].shape[0]
 
-        def grids(frames: animations.Frames) -> np.ndarray:
+        def grids(animation: animations.Frames) -> np.ndarray:
             return np.stack(
-                [resample(gim["face"], gim["bary"], n, frames.faces, p) for p in frames.positions]
+                [
+                    resample(gim["face"], gim["bary"], n, animation.faces, p)
+                    for p in animation.positions
+                ]
             )
 
         arrays = user_sequences(name, grids(sequence), grids(test) if test else None, params)
@@ -247,11 +255,11 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One DeepPRT network trained on an object's train split (val for model selection),
     and the selected network exported as the ONNX file a renderer ships."""
     seq = io.load_npz(inputs["seq"])
-    train, val = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
+    train_split, val_split = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
     material, data_key = params["material"], io.checksum(list(inputs.values()))
     train_deepprt(
-        train,
-        val,
+        train_split,
+        val_split,
         material,
         params,
         threads,
@@ -260,16 +268,21 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         data_key,
         outputs.get("tensorboard"),
     )
-    export_deepprt(outputs["checkpoint"], val, outputs["onnx"])
+    export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
 
 
 def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """MoMoPRT fitted on the train split, on blendshape weights where the object has them."""
     seq = io.load_npz(inputs["seq"])
-    train, val = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
+    train_split, val_split = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
     use_params = str(seq["kind"]) in ("head", "head_linear", "head_excluded")
     model = fit_momoprt(
-        train, val, params["material"], use_params, params["pca_components"], params["ridges"]
+        train_split,
+        val_split,
+        params["material"],
+        use_params,
+        params["pca_components"],
+        params["ridges"],
     )
     model.save(outputs["model"])
 
@@ -324,18 +337,16 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
     too), the loss figure and the equal-quality figure."""
-    objects_ = params["objects"]
-    keys = [(o, m) for o in objects_ for m in MATERIALS]  # the order of the rule's expand()
+    names = params["objects"]
+    keys = [(o, m) for o in names for m in MATERIALS]  # the order of the rule's expand()
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
     deployment = [read_deployment(p) for p in inputs["deployment"]]
     io.write_csv(outputs["deployment"], pd.concat(deployment, ignore_index=True))
     splits = len(SPLITS)
-    frame_dirs = {
-        o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(objects_)
-    }
+    frame_dirs = {o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(names)}
     compression = summary.compression_rows(
-        objects_,
+        names,
         dict(zip(keys, inputs["checkpoints"], strict=True)),
         dict(zip(keys, inputs["onnx"], strict=True)),
         frame_dirs,

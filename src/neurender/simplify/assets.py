@@ -14,7 +14,8 @@
 
 An :class:`Asset` is what the stage needs of either: the detailed triangle surface that
 QEM and the classic baker start from, the reference renderer, the colour and normal the
-baker reads at a surface point, and where the cameras may stand. World space is
+baker reads at a surface point, its albedo where that is uniform, and where the cameras
+may stand. World space is
 right-handed, y up, units are the assets' own (no physical scale).
 """
 
@@ -39,6 +40,9 @@ from neurender.simplify.views import View
 
 CREATURE_RADIUS = 1.7
 HEAD_ALBEDO = 0.8
+#: Held-out references are rendered with seed ``seed + TEST_SEED_OFFSET`` (a prime), so
+#: their Monte Carlo noise is independent of the training references'.
+TEST_SEED_OFFSET = 7919
 #: Half-diagonal of a user asset's bounding box in the stage's frame: within the default
 #: 30-degree view at distance 6.5 (half-height 1.74), like the head and the creature.
 USER_RADIUS = 1.6
@@ -96,6 +100,11 @@ def metaball_creature(count: int, seed: int) -> Scene:
     return Scene(centres * scale, radii * scale, u[:, 4:7] * 0.8 + 0.1)
 
 
+def reference_seed(seed: int, split: str) -> int:
+    """The render seed of a split's Mitsuba references (:data:`TEST_SEED_OFFSET`)."""
+    return seed + TEST_SEED_OFFSET * (split == "test")
+
+
 @dataclasses.dataclass
 class Asset:
     """A detailed asset as the stage sees it.
@@ -106,7 +115,11 @@ class Asset:
         views: a key of :data:`VIEW_RANGES`.
         colour_fn, normal_fn: what the classic baker reads at a detailed-surface hit
             (None: no colour map; the detailed mesh's interpolated vertex normals).
-        references: ``(mi, views, split, cfg) -> (N, W, W, 4)`` reference renders.
+        references: ``(mi, views, split) -> (N, W, W, 4)`` reference renders (linear RGB,
+            alpha = coverage) with the settings the asset was loaded with.
+        albedo: the uniform grey albedo of an asset whose material is uniform (the head;
+            its baselines and the viewer use it and it is not optimised); None where the
+            colour varies (a texture is baked and optimised).
         to_asset: ``(4, 4)`` from the stage's frame back to the asset file's (uniform
             scale and translation); None for the built-in cases, made in the stage's frame.
         source: a user asset's parts with their materials, in the stage's frame; None
@@ -119,7 +132,8 @@ class Asset:
     views: str
     colour_fn: AttributeFn | None
     normal_fn: AttributeFn | None
-    references: Callable[[ModuleType, list[View], str, dict], np.ndarray]
+    references: Callable[[ModuleType, list[View], str], np.ndarray]
+    albedo: float | None = None
     to_asset: np.ndarray | None = None
     source: user_mesh.UserMesh | None = None
 
@@ -129,12 +143,12 @@ def head_asset(cfg: dict) -> Asset:
     ``test_spp`` for held-out ones)."""
     detail = detailed_head(cfg["head_vertices"], cfg["seed"])
 
-    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+    def references(mi: ModuleType, views: list[View], split: str) -> np.ndarray:
         shape = mitsuba_setup.mesh(
             mi, detail.vertices, detail.faces, render.material(mi, HEAD_ALBEDO)
         )
         spp = cfg["test_spp"] if split == "test" else cfg["reference_spp"]
-        seed = cfg["seed"] + 7919 * (split == "test")
+        seed = reference_seed(cfg["seed"], split)
         return render.render_views(
             mi, shape, views, cfg["resolution"], spp, cfg["intensity"], seed, f"head {split}"
         )
@@ -147,6 +161,7 @@ def head_asset(cfg: dict) -> Asset:
         colour_fn=None,
         normal_fn=None,
         references=references,
+        albedo=HEAD_ALBEDO,
     )
 
 
@@ -170,7 +185,7 @@ def metaball_asset(cfg: dict) -> Asset:
     def normal_fn(points, face, bary):
         return surface_attributes(torch.from_numpy(points), balls)[1].numpy()
 
-    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+    def references(mi: ModuleType, views: list[View], split: str) -> np.ndarray:
         # Held-out references get 4x the sub-pixel rays: their coverage is then close to
         # continuous, like Mitsuba's, and the silhouette metric is not quantised.
         ss = cfg["supersample"] * (2 if split == "test" else 1)
@@ -223,17 +238,17 @@ def to_asset_matrix(scale: float, offset: np.ndarray) -> np.ndarray:
 
 def user_asset(cfg: dict) -> Asset:
     """A user's asset ``cfg["asset"]`` (``path``, ``ratio`` or ``triangles``, ``views``),
-    rendered by Mitsuba from its parts with their own albedo (``reference_spp`` for
-    training views, ``test_spp`` for held-out ones)."""
+    named ``cfg["case"]``, rendered by Mitsuba from its parts with their own albedo
+    (``reference_spp`` for training views, ``test_spp`` for held-out ones)."""
     entry = cfg["asset"]
     source = user_mesh.load(entry["path"])
     scale, offset = normalisation(source)
     mesh = source.transformed(scale, offset)
     budget = triangle_budget(entry, len(mesh.faces), entry["path"])
 
-    def references(mi: ModuleType, views: list[View], split: str, cfg: dict) -> np.ndarray:
+    def references(mi: ModuleType, views: list[View], split: str) -> np.ndarray:
         spp = cfg["test_spp"] if split == "test" else cfg["reference_spp"]
-        seed = cfg["seed"] + 7919 * (split == "test")
+        seed = reference_seed(cfg["seed"], split)
         return render.render_views(
             mi,
             mesh.mitsuba_shapes(mi),
@@ -258,15 +273,10 @@ def user_asset(cfg: dict) -> Asset:
     )
 
 
-def constant_albedo(case: str) -> float | None:
-    """The grey albedo of a case whose material is uniform (the head); None where the
-    colour varies and is baked into a texture."""
-    return HEAD_ALBEDO if case == "head" else None
-
-
 def load(case: str, cfg: dict) -> Asset:
     """The asset of a use case: one of :data:`neurender.simplify.CASES`, or a user asset
-    when ``cfg`` holds its entry under ``asset``."""
+    when ``cfg`` holds its entry under ``asset``; its ``references`` render with the keys
+    of ``cfg`` (``resolution``, ``intensity``, ``seed`` and the spp or supersampling)."""
     if "asset" in cfg:
         return user_asset(cfg)
     if case == "head":

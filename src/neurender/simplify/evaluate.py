@@ -28,6 +28,9 @@ from neurender.simplify import VARIANTS, export, formats, render, terminator, vi
 from neurender.simplify.mesh_ops import LowPolyMesh
 from neurender.tables import tidy_rows
 
+#: Every variant is rendered with seed ``seed + EVALUATION_SEED_OFFSET`` (a prime): the
+#: same noise for each, independent of the references' (:mod:`neurender.simplify.assets`).
+EVALUATION_SEED_OFFSET = 104729
 #: Exported files read back and rendered, by variant name (user assets).
 EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
 
@@ -58,18 +61,19 @@ def image_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
 
 
 def variant_maps(
-    variant: str, files: dict, constant_albedo: float | None
+    variant: str, files: dict
 ) -> tuple[LowPolyMesh, np.ndarray, np.ndarray | float, np.ndarray | None]:
     """What one variant draws at the shared triangle count and texture size: the atlas
-    mesh, its welded positions ``(V, 3)``, its albedo (a ``(T, T, 3)`` map or the case's
-    uniform grey) and its normal map in Mitsuba's tangent frame (None for ``qem``).
+    mesh, its welded positions ``(V, 3)``, its albedo (a ``(T, T, 3)`` map, or for the
+    baselines of an asset of uniform albedo that grey, stored with the ``lowpoly`` file)
+    and its normal map in Mitsuba's tangent frame (None for ``qem``).
 
     Args:
         files: the case's ``lowpoly``, ``baked_albedo``, ``baked_normal``, ``mesh``,
             ``normal`` and ``albedo`` files.
-        constant_albedo: the case's uniform grey albedo (its baselines use it), or None.
     """
     low = formats.load_lowpoly(files["lowpoly"])
+    uniform = formats.load_albedo(files["lowpoly"])
     albedo = formats.read_texture(files["baked_albedo"])
     positions, normal_map = low.positions, None
     if variant == "baked":
@@ -78,14 +82,14 @@ def variant_maps(
         positions = io.load_npz(files["mesh"])["positions"]
         normal_map = formats.read_texture(files["normal"])
         albedo = formats.read_texture(files["albedo"])
-    if constant_albedo is not None and variant != "ours":
-        albedo = constant_albedo
+    if uniform is not None and variant != "ours":
+        albedo = uniform
     return low, positions, albedo, normal_map
 
 
-def variant_shape(mi: ModuleType, variant: str, files: dict, constant_albedo: float | None):
+def variant_shape(mi: ModuleType, variant: str, files: dict):
     """The Mitsuba mesh of one variant (:func:`variant_maps`)."""
-    low, positions, albedo, normal_map = variant_maps(variant, files, constant_albedo)
+    low, positions, albedo, normal_map = variant_maps(variant, files)
     return render.atlas_shape(mi, low, render.material(mi, albedo, normal_map), positions)
 
 
@@ -102,11 +106,11 @@ def evaluate_case(
     case: str,
     files: dict,
     cfg: dict,
-    constant_albedo,
     exports: dict | None = None,
 ) -> tuple[list[dict], tuple[np.ndarray, dict[str, np.ndarray]]]:
     """Render every variant of one case from its test views (and the ``exports``, the
-    ``glb`` and ``obj`` files of :data:`EXPORTED`, when given).
+    ``glb`` and ``obj`` files of :data:`EXPORTED`, when given) with ``cfg``'s
+    ``resolution``, ``eval_spp``, ``intensity`` and ``seed``.
 
     Returns:
         tidy rows (one per view and metric) and, for the comparison figure, the reference
@@ -119,7 +123,7 @@ def evaluate_case(
         shape = (
             exported_shape(mi, exports[EXPORTED[variant]], files["lowpoly"])
             if variant in EXPORTED
-            else variant_shape(mi, variant, files, constant_albedo)
+            else variant_shape(mi, variant, files)
         )
         renders[variant] = render.render_views(
             mi,
@@ -128,7 +132,7 @@ def evaluate_case(
             cfg["resolution"],
             cfg["eval_spp"],
             cfg["intensity"],
-            cfg["seed"] + 104729,
+            cfg["seed"] + EVALUATION_SEED_OFFSET,
             f"{case} {variant}",
             terminator.integrator(mi, dr),
         )

@@ -3,8 +3,10 @@
 * View stacks: ``(N, H, W, 4)`` float32 RGBA images (linear radiance, alpha = coverage) as
   one EXR with channels ``v000.R`` ... ``vNNN.A``.
 * Low-poly meshes: ``.npz`` with the welded ``positions``/``faces`` and the atlas
-  ``vmap``/``uvs``/``uv_faces`` of :class:`neurender.simplify.mesh_ops.LowPolyMesh`; for a
-  user asset also ``to_asset``, the ``(4, 4)`` map from the stage's frame to the file's.
+  ``vmap``/``uvs``/``uv_faces`` of :class:`neurender.simplify.mesh_ops.LowPolyMesh`, the
+  asset's uniform grey ``albedo`` (NaN where its colour varies; see
+  :class:`neurender.simplify.assets.Asset`) and, for a user asset, ``to_asset``, the
+  ``(4, 4)`` map from the stage's frame to the file's.
 * Textures: ``(T, T, 3)`` values in [0, 1] as 16-bit RGB PNG, row 0 at ``v = 0``.
 * The portable result (GLB, OBJ + MTL + PNGs): :mod:`neurender.simplify.export`.
 """
@@ -40,8 +42,14 @@ def read_images(path: str | Path) -> np.ndarray:
     return np.stack([np.stack([data[f"v{i:03d}.{c}"] for c in CHANNELS], -1) for i in range(n)])
 
 
-def save_lowpoly(path: str | Path, low: LowPolyMesh, to_asset: np.ndarray | None = None) -> None:
-    """``to_asset`` is stored only when given (user assets)."""
+def save_lowpoly(
+    path: str | Path,
+    low: LowPolyMesh,
+    albedo: float | None,
+    to_asset: np.ndarray | None = None,
+) -> None:
+    """The asset's QEM atlas mesh with its uniform ``albedo`` (None: the colour varies);
+    ``to_asset`` is stored only when given (user assets)."""
     extra = {} if to_asset is None else {"to_asset": to_asset}
     io.save_npz(
         path,
@@ -50,6 +58,7 @@ def save_lowpoly(path: str | Path, low: LowPolyMesh, to_asset: np.ndarray | None
         vmap=low.vmap,
         uvs=low.uvs,
         uv_faces=low.uv_faces,
+        albedo=np.float64(np.nan if albedo is None else albedo),
         **extra,
     )
 
@@ -57,6 +66,18 @@ def save_lowpoly(path: str | Path, low: LowPolyMesh, to_asset: np.ndarray | None
 def load_lowpoly(path: str | Path) -> LowPolyMesh:
     d = io.load_npz(path)
     return LowPolyMesh(d["positions"], d["faces"], d["vmap"], d["uvs"], d["uv_faces"])
+
+
+def load_albedo(path: str | Path) -> float | None:
+    """The uniform grey albedo stored with a low-poly file, None where the colour varies."""
+    d = io.load_npz(path)
+    if "albedo" not in d:
+        raise ValueError(
+            f"{path} has no albedo entry (written by an older simplify_prepare); "
+            "rerun it: snakemake --forcerun simplify_prepare ..."
+        )
+    albedo = float(d["albedo"])
+    return None if np.isnan(albedo) else albedo
 
 
 def load_to_asset(path: str | Path) -> np.ndarray:

@@ -27,10 +27,10 @@ from neurender.simplify import (
     figures,
     formats,
     mesh_ops,
+    optimise,
     summary,
     views,
 )
-from neurender.simplify.optimise import OptimiseConfig, optimise
 from neurender.simplify.viewer import simplify_view
 
 
@@ -58,21 +58,18 @@ def simplify_prepare(inputs: dict, outputs: dict, params: dict, threads: int) ->
     asset = assets.load(case, params)
     for split in ("train", "test"):
         split_views = case_views(params, case, split, asset.views)
-        formats.write_images(
-            outputs[f"{split}_images"], asset.references(mi, split_views, split, params)
-        )
+        formats.write_images(outputs[f"{split}_images"], asset.references(mi, split_views, split))
         io.write_csv(outputs[f"{split}_views"], views.views_frame(split_views))
     v, f = mesh_ops.decimate(asset.vertices, asset.faces, asset.triangles)
     low = mesh_ops.uv_atlas(v, f, params["texture_size"])
-    formats.save_lowpoly(outputs["lowpoly"], low, asset.to_asset)
+    formats.save_lowpoly(outputs["lowpoly"], low, asset.albedo, asset.to_asset)
     normal_map, colour_map = bake.bake(
         low, asset.vertices, asset.faces, params["texture_size"], asset.colour_fn, asset.normal_fn
     )
     formats.write_texture(outputs["baked_normal"], normal_map)
-    albedo = assets.constant_albedo(case)
     formats.write_texture(
         outputs["baked_albedo"],
-        np.full_like(normal_map, albedo) if colour_map is None else colour_map,
+        np.full_like(normal_map, asset.albedo) if colour_map is None else colour_map,
     )
     stats = {
         "reference_triangles": len(asset.faces),
@@ -92,26 +89,29 @@ def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -
     varies, its albedo map) optimised through Mitsuba against the training references;
     the result also as GLB and OBJ + MTL + PNGs in the asset's own units. The albedo map
     starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
-    of their own albedo), else from grey."""
+    of their own albedo), else from grey; an asset of uniform albedo (stored with its
+    ``lowpoly`` file) keeps it."""
     case = params["case"]
     mi, dr = require_mitsuba(params["device"])
     # One Dr.Jit thread makes the gradient scatter-adds, and so the result, deterministic.
     dr.set_thread_count(threads)
     low = formats.load_lowpoly(inputs["lowpoly"])
-    train_views = views.views_from_frame(io.read_csv(inputs["train_views"]))
-    references = formats.read_images(inputs["train_images"])
+    references = optimise.References(
+        views.views_from_frame(io.read_csv(inputs["train_views"])),
+        formats.read_images(inputs["train_images"]),
+    )
     size = params["texture_size"]
     flat = np.broadcast_to([0.5, 0.5, 1.0], (size, size, 3)).copy()
-    constant = assets.constant_albedo(case)
+    constant = formats.load_albedo(inputs["lowpoly"])
     if "initial_albedo" in inputs:
         # A user asset's own texture (or colours), transferred to the atlas by the classic
         # bake, is the initial guess (paper 3: "texture maps from the reference scene").
         albedo = formats.read_texture(inputs["initial_albedo"])
     else:
         albedo = constant if constant is not None else np.full((size, size, 3), 0.5)
-    settings = OptimiseConfig.from_stage(params, optimise_albedo=constant is None)
-    positions, normal_map, albedo_map, loss = optimise(
-        mi, dr, low, flat, albedo, references, train_views, settings
+    settings = optimise.OptimiseConfig.from_stage(params, optimise_albedo=constant is None)
+    positions, normal_map, albedo_map, loss = optimise.optimise(
+        mi, dr, optimise.Start(low, flat, albedo), references, settings
     )
     if albedo_map is None:
         albedo_map = np.full_like(normal_map, constant)
@@ -128,7 +128,8 @@ def simplify_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -
 def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every variant of every case rendered from its held-out views (for user assets also
     the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
-    the stage's timings, and the targets."""
+    the stage's timings on the job's ``threads`` cores (the workflow's; the optimisation
+    jobs ran with ``params["optimise_threads"]`` each), and the targets."""
     started = time.perf_counter()
     mi, dr = require_mitsuba(params["device"])
     rows, crops = [], {}
@@ -139,9 +140,7 @@ def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -
             if case in params["user_assets"]
             else {}
         )
-        case_rows, crops[case] = evaluate.evaluate_case(
-            mi, dr, case, files, params, assets.constant_albedo(case), exports
-        )
+        case_rows, crops[case] = evaluate.evaluate_case(mi, dr, case, files, params, exports)
         rows += case_rows
     frame = pd.DataFrame(rows)
     io.write_csv(outputs["metrics_views"], frame)
@@ -151,7 +150,8 @@ def simplify_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -
     losses = [io.read_csv(inputs[f"{case}_loss"]) for case in params["cases"]]
     figures.loss_figure(losses, outputs["loss_figure"])
     stats = pd.concat([io.read_csv(inputs[f"{case}_stats"]) for case in params["cases"]])
-    stats = summary.with_timings(stats, losses, time.perf_counter() - started, params["threads"])
+    elapsed = time.perf_counter() - started
+    stats = summary.with_timings(stats, losses, elapsed, params["optimise_threads"], threads)
     io.write_csv(outputs["stats"], stats)
     io.write_csv(outputs["targets"], summary.targets(frame, stats))
 
@@ -164,7 +164,7 @@ def simplify_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> 
     case = params["case"]
     asset = assets.load(case, params)
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "split", "metric", "value"])
-    view = simplify_view(case, asset, inputs, metrics, assets.constant_albedo(case))
+    view = simplify_view(case, asset, inputs, metrics)
     viewer_data.write(
         outputs["viewer"],
         "meshes",

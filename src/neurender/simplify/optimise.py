@@ -33,34 +33,65 @@ PAPER_STEPS = 10_000
 MIN_NORMAL_Z = 0.1
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class OptimiseConfig:
     """Steps of ``batch`` views, samples per pixel, learning rates (positions in scene units
     per step) that decay exponentially to ``lr_final_fraction`` of their start, the eq. 6
-    Laplacian weights, and what is optimised."""
+    Laplacian weights, and what is optimised. The values and their defaults are the
+    ``simplify`` config's (the schema); only what is optimised is the code's choice."""
 
     steps: int
+    batch: int
     spp: int
     width: int
     lr_positions: float
     lr_textures: float
     lr_final_fraction: float
+    laplacian_scale: float
+    laplacian_min_fraction: float
     intensity: float
     seed: int
-    batch: int = 1  # views per step (paper 8)
     optimise_positions: bool = True
     optimise_albedo: bool = False
-    laplacian_scale: float = 0.25  # lambda_0 = scale * L_image / L_delta (paper 5.3)
-    laplacian_min_fraction: float = 0.02
 
     @classmethod
     def from_stage(cls, cfg: dict, **overrides) -> OptimiseConfig:
         """The optimiser's keys of the ``simplify`` config (``resolution`` is the width),
-        plus overrides."""
-        names = {f.name for f in dataclasses.fields(cls)} - {"width"}
+        plus overrides; a missing key is named."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        names = set(fields) - {"width"}
+        required = {n for n in names if fields[n].default is dataclasses.MISSING}
+        missing = sorted(required - set(cfg) - set(overrides)) + (
+            [] if "resolution" in cfg else ["resolution"]
+        )
+        if missing:
+            raise KeyError(f"the optimisation's config lacks the simplify keys {missing}")
         return cls(
             width=cfg["resolution"], **{k: v for k, v in cfg.items() if k in names}, **overrides
         )
+
+
+@dataclasses.dataclass(frozen=True)
+class Start:
+    """What the optimisation starts from: the QEM atlas mesh, its normal map ``(T, T, 3)``
+    in Mitsuba's tangent frame (values in [0, 1]) and its albedo, a linear grey or a
+    ``(T, T, 3)`` map (optimised only when ``OptimiseConfig.optimise_albedo``)."""
+
+    low: LowPolyMesh
+    normal_map: np.ndarray
+    albedo: float | np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class References:
+    """The training views and their reference renders ``(N, W, W, >=3)``, linear RGB."""
+
+    views: list[View]
+    images: np.ndarray
+
+    def __post_init__(self):
+        if len(self.images) != len(self.views):
+            raise ValueError(f"{len(self.images)} reference images for {len(self.views)} views")
 
 
 def laplacian_decay(steps: int) -> float:
@@ -139,11 +170,12 @@ class LatentMesh:
         )
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(kw_only=True)
 class _Run:
     """What the steps of one optimisation share: the Mitsuba scene and its parameters, the
-    latent mesh, both optimisers, the Laplacian of the start mesh, the reference images,
-    the order the views are drawn in and the Laplacian weight of eq. 6 (set at step 0)."""
+    latent mesh, both optimisers, the Laplacian of the start mesh, the training views and
+    their reference images, the order the views are drawn in, the normal map's lower
+    bound, and the Laplacian weight of eq. 6 (set at step 0) with its decay rate."""
 
     scene: object
     params: object
@@ -151,6 +183,7 @@ class _Run:
     tex_opt: object
     pos_opt: object
     delta0: object
+    views: list[View]
     targets: list
     order: np.ndarray
     normal_lo: object
@@ -160,22 +193,16 @@ class _Run:
 
 
 def _start(
-    mi: ModuleType,
-    dr: ModuleType,
-    low: LowPolyMesh,
-    normal_map: np.ndarray,
-    albedo: float | np.ndarray,
-    references: np.ndarray,
-    views: list[View],
-    cfg: OptimiseConfig,
+    mi: ModuleType, dr: ModuleType, start: Start, references: References, cfg: OptimiseConfig
 ) -> _Run:
-    """The scene of ``low`` with its textures, and the optimisers over them."""
-    shape = atlas_shape(mi, low, material(mi, albedo, normal_map))
+    """The scene of the start mesh with its textures, and the optimisers over them."""
+    low, normal_map = start.low, start.normal_map
+    shape = atlas_shape(mi, low, material(mi, start.albedo, normal_map))
     scene = mi.load_dict(
         scene_dict(
             mi,
             shape,
-            views[0],
+            references.views[0],
             cfg.width,
             cfg.spp,
             cfg.intensity,
@@ -192,9 +219,10 @@ def _start(
         lr=cfg.lr_positions, params={"positions": mi.Float(np.ravel(low.positions))}
     )
     delta0 = dr.detach(latent.laplacian(latent.points(mi.Float(np.ravel(low.positions)))))
-    targets = [mi.TensorXf(np.ascontiguousarray(r[..., :3])) for r in references]
+    targets = [mi.TensorXf(np.ascontiguousarray(r[..., :3])) for r in references.images]
     draws = cfg.steps * cfg.batch
-    order = np.random.default_rng(cfg.seed).permutation(np.resize(np.arange(len(views)), draws))
+    views = np.arange(len(references.views))
+    order = np.random.default_rng(cfg.seed).permutation(np.resize(views, draws))
     # Tangent-space normals stay in the upper hemisphere (z >= MIN_NORMAL_Z), as in nvdiffrec.
     normal_lo = mi.TensorXf(
         np.broadcast_to([0.0, 0.0, (1 + MIN_NORMAL_Z) / 2], normal_map.shape)
@@ -202,21 +230,22 @@ def _start(
         .copy()
     )
     return _Run(
-        scene,
-        params,
-        latent,
-        tex_opt,
-        pos_opt,
-        delta0,
-        targets,
-        order,
-        normal_lo,
-        laplacian_decay(cfg.steps),
+        scene=scene,
+        params=params,
+        latent=latent,
+        tex_opt=tex_opt,
+        pos_opt=pos_opt,
+        delta0=delta0,
+        views=references.views,
+        targets=targets,
+        order=order,
+        normal_lo=normal_lo,
+        decay=laplacian_decay(cfg.steps),
     )
 
 
 def _batch_gradients(
-    mi: ModuleType, dr: ModuleType, run: _Run, step: int, views: list[View], cfg: OptimiseConfig
+    mi: ModuleType, dr: ModuleType, run: _Run, step: int, cfg: OptimiseConfig
 ) -> tuple[list[float], float]:
     """Render and back-propagate every view of ``step``'s batch (the Laplacian term with
     the first); the image L1 of each view and the Laplacian term's value."""
@@ -230,7 +259,7 @@ def _batch_gradients(
         run.params.update(run.tex_opt)
         p = run.latent.points(run.pos_opt["positions"])
         run.latent.write(run.params, p)
-        set_view(mi, run.params, views[run.order[draw]])
+        set_view(mi, run.params, run.views[run.order[draw]])
         run.params.update()
         image = mi.render(run.scene, run.params, seed=cfg.seed + draw, spp=cfg.spp)
         loss_image = dr.mean(
@@ -264,24 +293,15 @@ def _apply(dr: ModuleType, run: _Run, cfg: OptimiseConfig) -> None:
 
 
 def optimise(
-    mi: ModuleType,
-    dr: ModuleType,
-    low: LowPolyMesh,
-    normal_map: np.ndarray,
-    albedo: float | np.ndarray,
-    references: np.ndarray,
-    views: list[View],
-    cfg: OptimiseConfig,
+    mi: ModuleType, dr: ModuleType, start: Start, references: References, cfg: OptimiseConfig
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, pd.DataFrame]:
-    """Optimise ``low`` against reference images ``(N, W, W, >=3)`` (linear RGB) of ``views``.
+    """Optimise the ``start`` mesh and textures against the training ``references``.
 
     Returns:
         welded positions ``(V, 3)``, normal map ``(T, T, 3)``, albedo map ``(T, T, 3)``
         (None unless optimised) and a tidy loss table (``step, metric, value``).
     """
-    if len(references) != len(views):
-        raise ValueError(f"{len(references)} reference images for {len(views)} views")
-    run = _start(mi, dr, low, normal_map, albedo, references, views, cfg)
+    run = _start(mi, dr, start, references, cfg)
     rows = []
     for step in tqdm(range(cfg.steps), desc="optimise", mininterval=10):
         started = time.perf_counter()
@@ -290,7 +310,7 @@ def optimise(
         run.pos_opt.set_learning_rate(
             cfg.lr_positions * lr_scale if cfg.optimise_positions else 0.0
         )
-        image_losses, laplacian_value = _batch_gradients(mi, dr, run, step, views, cfg)
+        image_losses, laplacian_value = _batch_gradients(mi, dr, run, step, cfg)
         _apply(dr, run, cfg)
         image_l1 = float(np.mean(image_losses))
         if not math.isfinite(image_l1):

@@ -1,4 +1,4 @@
-"""The simplification stage's timings and targets (default config, 2 CPU cores)."""
+"""The simplification stage's timings and targets."""
 
 from __future__ import annotations
 
@@ -13,12 +13,13 @@ def with_timings(
     losses: list[pd.DataFrame],
     evaluate_s: float,
     optimise_threads: int,
-    cores: int = 2,
+    cores: int,
 ) -> pd.DataFrame:
     """Add each case's optimisation time (sum of its steps) and the stage's total on
-    ``cores`` cores, in seconds: preparation and this evaluation (all cores each) plus the
-    optimisation loops weighted by their share of the cores (``optimise_threads`` each;
-    one-thread jobs run side by side)."""
+    ``cores`` cores (the workflow's, which the preparation and the evaluation use), in
+    seconds: preparation and this evaluation (all cores each) plus the optimisation loops
+    weighted by their share of the cores (``optimise_threads`` each, the config's
+    ``simplify.threads``; one-thread jobs run side by side)."""
     extra = [
         {
             "case": loss["case"].iloc[0],

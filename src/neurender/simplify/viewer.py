@@ -87,7 +87,7 @@ def part_primitive(part: Part, normals: np.ndarray) -> gltf.Primitive:
     return gltf.Primitive(part.vertices, part.faces, normals, base_colour=albedo)
 
 
-def reference_primitives(asset: Asset, constant_albedo: float | None) -> list[gltf.Primitive]:
+def reference_primitives(asset: Asset) -> list[gltf.Primitive]:
     """The detailed surface of a use case as glTF primitives (see the module docstring);
     above :data:`MAX_REFERENCE_TRIANGLES` its QEM decimation to that count, grey."""
     if len(asset.faces) > MAX_REFERENCE_TRIANGLES:
@@ -104,29 +104,26 @@ def reference_primitives(asset: Asset, constant_albedo: float | None) -> list[gl
         face, bary = vertex_corners(asset.faces, len(asset.vertices))
         primitive.colours = np.clip(asset.colour_fn(asset.vertices, face, bary), 0, 1)
     else:
-        grey = PLAIN_ALBEDO if constant_albedo is None else constant_albedo
+        grey = PLAIN_ALBEDO if asset.albedo is None else asset.albedo
         primitive.base_colour = (float(grey),) * 3
     return [primitive]
 
 
-def simplify_view(
-    case: str, asset: Asset, files: dict, metrics: pd.DataFrame, constant_albedo: float | None
-) -> dict:
+def simplify_view(case: str, asset: Asset, files: dict, metrics: pd.DataFrame) -> dict:
     """The ``meshes`` viewer data of one use case.
 
     Args:
         asset: the case's reference (:func:`neurender.simplify.assets.load`).
         files: the case's files as :func:`neurender.simplify.evaluate.variant_maps` reads them.
         metrics: the evaluation's mean metrics (tidy; ``psnr`` of the ``test`` split).
-        constant_albedo: the case's uniform grey albedo, or None.
     """
-    meshes = {REFERENCE: gltf.glb(reference_primitives(asset, constant_albedo), case)}
+    meshes = {REFERENCE: gltf.glb(reference_primitives(asset), case)}
     captions = {REFERENCE: f"{len(asset.faces):,} triangles"}
     if len(asset.faces) > MAX_REFERENCE_TRIANGLES:
         captions[REFERENCE] += f" (shown decimated to {MAX_REFERENCE_TRIANGLES:,}, grey)"
     eye = np.eye(4)
     for variant, label in LABELS.items():
-        low, positions, albedo, normal_map = evaluate.variant_maps(variant, files, constant_albedo)
+        low, positions, albedo, normal_map = evaluate.variant_maps(variant, files)
         primitive = export.atlas_primitive(low, positions, albedo, normal_map, eye)
         meshes[label] = gltf.glb([primitive], f"{case}_{variant}")
         psnr = lookup(metrics, dataset=case, model=variant, split="test", metric="psnr")

@@ -93,13 +93,16 @@ def simplify_optimise_inputs(wildcards):
 
 
 def simplify_evaluate_params():
-    keys = SIMPLIFY_RENDER_KEYS + ("eval_spp", "threads")
+    """The render keys, the cases, and the optimisation jobs' threads (the evaluation's
+    own are the workflow's cores): the stage's time counts each optimisation by its
+    share of the cores."""
     return section_keys(
         "simplify",
-        keys,
+        SIMPLIFY_RENDER_KEYS + ("eval_spp",),
         ("seed", "device"),
         cases=list(SIMPLIFY_CASES),
         user_assets=list(SIMPLIFY_USER_ASSETS),
+        optimise_threads=config["simplify"]["threads"],
     )
 
 
