@@ -346,6 +346,30 @@ def validate(
     return {f"val_{k}": v / max(count, 1) for k, v in sums.items()}
 
 
+def _start(
+    model: torch.nn.Module,
+    adversary: Adversary | None,
+    config: TrainConfig,
+    train_size: int,
+    device: torch.device,
+) -> _Run:
+    """A fresh run on ``device``: Adam for the model (and the adversary, if any) and the
+    learning-rate schedule over every step of ``config.epochs``."""
+    model.to(device)
+    optimizer = torch.optim.Adam(
+        model.parameters(), lr=config.lr, betas=config.betas, weight_decay=config.weight_decay
+    )
+    steps_per_epoch = math.ceil(train_size / config.batch_size)
+    scheduler = _make_scheduler(optimizer, config, config.epochs * steps_per_epoch)
+    adv_optimizer = None
+    if adversary is not None:
+        adversary.module.to(device)
+        adv_optimizer = torch.optim.Adam(
+            adversary.module.parameters(), lr=config.lr, betas=config.betas
+        )
+    return _Run(model, optimizer, scheduler, adversary, adv_optimizer)
+
+
 def fit(
     model: torch.nn.Module,
     train_set: Dataset,
@@ -386,19 +410,7 @@ def fit(
     """
     check_plain(dict(extra_state or {}), f"extra_state of {checkpoint_path}")
     device = resolve_device(config.device, config.threads)
-    model.to(device)
-    optimizer = torch.optim.Adam(
-        model.parameters(), lr=config.lr, betas=config.betas, weight_decay=config.weight_decay
-    )
-    steps_per_epoch = math.ceil(len(train_set) / config.batch_size)
-    scheduler = _make_scheduler(optimizer, config, config.epochs * steps_per_epoch)
-    adv_optimizer = None
-    if adversary is not None:
-        adversary.module.to(device)
-        adv_optimizer = torch.optim.Adam(
-            adversary.module.parameters(), lr=config.lr, betas=config.betas
-        )
-    run = _Run(model, optimizer, scheduler, adversary, adv_optimizer)
+    run = _start(model, adversary, config, len(train_set), device)
     key = resume_key(config, model, data_key)
     resume_path = resume_path_for(checkpoint_path)
     load_resume(run, resume_path, key)
@@ -426,7 +438,7 @@ def fit(
             run.best_val = score
             run.best_state = {k: v.detach().cpu().clone() for k, v in model.state_dict().items()}
         epochs.set_postfix({k: f"{v:.4g}" for k, v in row.items() if k.endswith("loss")})
-        lr = optimizer.param_groups[0]["lr"]
+        lr = run.optimizer.param_groups[0]["lr"]
         board.epoch(epoch + 1, row, lr, time.perf_counter() - started, model)
         run.epoch = epoch + 1
         _atomic_torch_save(run.state(key), resume_path)

@@ -10,7 +10,7 @@ from neurender.prt.summary import compression_rows
 from neurender.prt.training import train_deepprt
 
 CFG = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-CFG |= {"residual_targets": True, "device": "cpu"}
+CFG |= {"residual_targets": True, "device": "cpu", "lr_schedule": "cosine"}
 
 
 def _split(frames, rng, n=4, k=16):
