@@ -119,9 +119,9 @@ def test_a_tidy_table_keeps_names_that_look_missing_or_numeric(tmp_path):
 
 def test_csv_errors_name_the_file_and_what_it_is(tmp_path):
     (tmp_path / "folder.csv").mkdir()
-    with pytest.raises(FileNotFoundError, match=f"CSV file {tmp_path / 'folder.csv'} is a dir"):
+    with pytest.raises(FileNotFoundError, match=f"CSV file {tmp_path / 'folder.csv'} is a folder"):
         io.read_csv(tmp_path / "folder.csv")
-    with pytest.raises(FileNotFoundError, match=f"EXR file {tmp_path / 'folder.csv'} is a dir"):
+    with pytest.raises(FileNotFoundError, match=f"EXR file {tmp_path / 'folder.csv'} is a folder"):
         io.read_exr(tmp_path / "folder.csv")
     (tmp_path / "long.csv").write_text("a,b\n1,2\n3,4,5\n")
     with pytest.raises(OSError, match=f"CSV file {tmp_path / 'long.csv'}: .*line 3, saw 3"):

@@ -36,7 +36,9 @@ PREVIEWS = tensorboard_log.Previews(_images, tensorboard_log.ssim_metric, count=
 
 
 def _cfg(epochs=4):
-    return train.TrainConfig(epochs=epochs, batch_size=4, lr=0.05, seed=3, device="cpu")
+    return train.TrainConfig(
+        epochs=epochs, batch_size=4, lr=0.05, lr_schedule="cosine", seed=3, device="cpu", threads=1
+    )
 
 
 def _fit(tmp_path, name, epochs=4, loss=_loss, previews=PREVIEWS):

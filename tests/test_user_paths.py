@@ -170,7 +170,9 @@ def _dry_run(tmp_path, text):
     extra = tmp_path / "extra.yaml"
     extra.write_text(text)
     result = subprocess.run(
-        [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--cores", "1"]
+        # --forceall: every job is listed, whatever this checkout's results/ already holds.
+        [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--forceall"]
+        + ["--cores", "1"]
         + ["--configfile", "config/smoke.yaml", str(extra)],
         cwd=ROOT,
         capture_output=True,
