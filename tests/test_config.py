@@ -136,8 +136,8 @@ def test_unknown_objects_and_missing_user_files_are_refused(smoke, tmp_path):
 
 
 def test_a_head_budget_above_its_detail_is_refused(smoke):
-    found = rules.problems(_with(smoke, "simplify.head_triangles", 5000))
-    assert found and found[0].startswith("simplify.head_triangles = 5000")
+    found = rules.problems(_with(smoke, "simplification.head_triangles", 5000))
+    assert found and found[0].startswith("simplification.head_triangles = 5000")
 
 
 def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
