@@ -1,6 +1,7 @@
 """Each cross-key config rule refuses a bad value, naming the key and the value."""
 
 import copy
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -136,8 +137,8 @@ def test_unknown_objects_and_missing_user_files_are_refused(smoke, tmp_path):
 
 
 def test_a_head_budget_above_its_detail_is_refused(smoke):
-    found = rules.problems(_with(smoke, "simplify.head_triangles", 5000))
-    assert found and found[0].startswith("simplify.head_triangles = 5000")
+    found = rules.problems(_with(smoke, "simplification.head_triangles", 5000))
+    assert found and found[0].startswith("simplification.head_triangles = 5000")
 
 
 def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
@@ -163,3 +164,119 @@ def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
     assert result.returncode != 0
     out = result.stdout + result.stderr
     assert "metaballs.balls = [6, 2]: expected [min, max] with min <= max" in out
+
+
+def test_a_renamed_section_is_refused_naming_its_new_key_and_the_file_that_sets_it(tmp_path):
+    old, other = tmp_path / "old.yaml", tmp_path / "other.yaml"
+    old.write_text("simplify:\n  steps: 10\n")
+    other.write_text("seed: 3\n")
+    cfg = {"seed": 3, "simplify": {"steps": 10}, "simplification": {"steps": 20}}
+    with pytest.raises(rules.ConfigError) as raised:
+        rules.check_renamed(cfg, [other, old])
+    assert str(raised.value) == (
+        "config key 'simplify' was renamed to 'simplification' (neurender 0.2); "
+        f"rename the section in {old}"
+    )
+    with pytest.raises(rules.ConfigError, match="rename the section in the --config arguments"):
+        rules.check_renamed(cfg, [other])
+    rules.check_renamed({"seed": 3, "simplification": {}}, [other])  # the new name passes
+
+
+def test_the_dry_run_names_the_new_key_before_the_schema_refuses_the_old_one(tmp_path):
+    old = tmp_path / "old.yaml"
+    old.write_text("simplify:\n  steps: 10\n")
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "results/report.html",
+            "-n",
+            "--cores",
+            "1",
+            "--configfile",
+            "config/smoke.yaml",
+            str(old),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode != 0
+    out = result.stdout + result.stderr
+    assert (
+        "config key 'simplify' was renamed to 'simplification' (neurender 0.2); "
+        f"rename the section in {old}"
+    ) in out
+    assert "Additional properties" not in out  # the rename's message, not the schema's
+
+
+#: Where the workflow's own files live (not tests/ or docs/, which may quote old names).
+_OWN_FILES = ("Snakefile", "pyproject.toml", "src", "workflow", "config", "scripts", "benchmarks")
+_TEXT_SUFFIXES = {"", ".py", ".smk", ".yaml", ".yml", ".csv", ".md", ".sh", ".json", ".j2", ".js"}
+#: The lines that must still name an old key: the table of renames, and the seed salt
+#: that keeps the renamed package's random numbers.
+_KEPT = {
+    "src/neurender/config.py": re.compile(r"^RENAMED\b"),
+    "src/neurender/simplification/__init__.py": re.compile(r'^SEED_SALT = "simplify"$'),
+}
+
+
+def _old_name_patterns(old):
+    """An old key as a config section, a dotted key, a module, a rule or a path."""
+    return re.compile(
+        rf"""["']{old}["']|^\s*{old}:|`{old}`|\b{old}\.\w|\b{old}_\w|(?<![\w.]){old}/"""
+        rf"|\bneurender\.{old}\b"
+    )
+
+
+def test_no_own_file_names_a_renamed_key_as_a_key_rule_or_module():
+    files = [
+        path
+        for top in _OWN_FILES
+        for path in ([ROOT / top] if (ROOT / top).is_file() else (ROOT / top).rglob("*"))
+        if path.is_file() and path.suffix in _TEXT_SUFFIXES and "__pycache__" not in path.parts
+    ]
+    assert len(files) > 100  # the walk found the tree
+    found = []
+    for old in rules.RENAMED:
+        pattern = _old_name_patterns(old)
+        for path in files:
+            name = path.relative_to(ROOT).as_posix()
+            if old in path.name:
+                found.append(name)
+            kept = _KEPT.get(name)
+            for number, line in enumerate(path.read_text().splitlines(), 1):
+                if pattern.search(line) and not (kept and kept.search(line)):
+                    found.append(f"{name}:{number}: {line.strip()}")
+    assert found == []
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        "simplify:",
+        '    s = config["simplify"]',
+        "from neurender.simplify import jobs",
+        "import neurender.simplify",
+        "rule simplify_prepare:",
+        '        "results/logs/simplify_prepare/{case}.log",',
+        "Every other key of `simplify` (render size)",
+        "| `simplify.user_assets.<name>.path` | (required) |",
+        "`neurender/simplify/`, `simplify/render.py`",
+    ],
+)
+def test_the_old_name_patterns_catch_each_use(line):
+    assert _old_name_patterns("simplify").search(line)
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        "    v, f = fast_simplification.simplify(",
+        "# Your meshes to simplify, name -> entry",
+        "the paper simplifies to 1-5 %",
+    ],
+)
+def test_the_old_name_patterns_pass_prose_and_other_libraries(line):
+    assert not _old_name_patterns("simplify").search(line)

@@ -21,7 +21,7 @@ def test_config_readme_lists_every_schema_key_with_its_default():
     table = {r[0]: r for r in config_docs.rows(schema, {})}
     assert table["prt.frames.train"][2] == "`200`"  # a nested key, dotted
     assert table["ndr_model.lr_schedule"][1] == "one of constant, cosine"
-    assert table["simplify.user_assets.<name>.ratio"][2] == "`0.02`"
+    assert table["simplification.user_assets.<name>.ratio"][2] == "`0.02`"
     assert table["prt.n_bands"][1] == "integer >= 1, <= 5"
     for section, sub in schema["properties"].items():
         for key in sub.get("properties", {}):

@@ -18,13 +18,13 @@ from neurender.asset_files import AssetFileError
 from neurender.display import linear_from_srgb
 from neurender.ndr import user_objects
 from neurender.prt import objects
-from neurender.simplify import user_mesh
+from neurender.simplification import user_mesh
 
 DEFAULTS = {"base_colour": [0.8, 0.7, 0.6], "specular": 0.04, "roughness": 0.5}
 LOADERS = {
     "prt": objects.read_mesh,
     "ndr": lambda path: user_objects.load_user_object(path, DEFAULTS),
-    "simplify": user_mesh.load,
+    "simplification": user_mesh.load,
 }
 #: Texel grid of :func:`gridded_box`: one row per y value, one column per two x values.
 ROWS, COLS = 5, 3
@@ -135,7 +135,7 @@ def _broken_texture(tmp_path, damage):
     return files
 
 
-@pytest.mark.parametrize("method", ["ndr", "simplify"])
+@pytest.mark.parametrize("method", ["ndr", "simplification"])
 @pytest.mark.parametrize(
     ("damage", "reason"),
     [
@@ -161,7 +161,7 @@ def test_a_texture_over_pillows_pixel_limit_is_refused_in_every_method(tmp_path,
     box, _ = gridded_box()
     files = write_obj(tmp_path, box)
     monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 10)  # the texture has 15 pixels
-    for method in ("ndr", "simplify"):
+    for method in ("ndr", "simplification"):
         with pytest.raises(AssetFileError, match="over Pillow's pixel limit") as err:
             LOADERS[method](files["obj"])
         assert f"{files['mtl']} names {files['png'].name}" in str(err.value)
@@ -283,7 +283,7 @@ def test_gltf_images_are_found_by_the_rule_and_refused_when_broken(tmp_path):
         part.texture[:, 0], linear_from_srgb(np.array([RED, BLUE]) / 255.0), atol=1e-6
     )
     (tmp_path / "textures" / "paint.png").write_bytes(b"garbage")
-    for method in ("ndr", "simplify"):
+    for method in ("ndr", "simplification"):
         with pytest.raises(AssetFileError) as err:
             LOADERS[method](path)
         assert str(err.value).startswith(
@@ -312,7 +312,7 @@ def test_a_texture_without_texture_coordinates_is_refused(tmp_path):
     (tmp_path / "a.obj").write_text(
         "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl paint\nf 1 2 3\n"
     )
-    for method in ("ndr", "simplify"):
+    for method in ("ndr", "simplification"):
         with pytest.raises(
             AssetFileError,
             match=r"a\.obj: a mesh with a textured material \(paint\) has no texture coordinates",

@@ -188,7 +188,7 @@ def test_the_dry_run_takes_a_leading_dot_slash_for_the_workflows_files(tmp_path)
         "prt:\n  user_sequences:\n    wave: {frames: ./results/examples/wave}\n"
         "ndr:\n  user_objects:\n    crate: ./results/examples/crate.obj\n"
         "  user_probes_dir: ./results/examples/maps\n"
-        "simplify:\n  user_assets:\n"
+        "simplification:\n  user_assets:\n"
         "    crate: {path: ./results/examples/crate.obj, triangles: 96}\n"
         "metaballs:\n  user_scenes: ./results/examples/balls.csv\n",
     )
@@ -198,7 +198,7 @@ def test_the_dry_run_takes_a_leading_dot_slash_for_the_workflows_files(tmp_path)
     # The example_assets rule's outputs, as it spells them, are the jobs' inputs.
     for path in ("crate.obj", "wave", "maps", "balls.csv"):
         assert any(f"results/examples/{path}" in line for line in inputs), path
-    assert "rule simplify_prepare" in out and "rule ndr_user_objects" in out
+    assert "rule simplification_prepare" in out and "rule ndr_user_objects" in out
 
 
 def test_the_dry_run_refuses_braces_naming_the_key(tmp_path):

@@ -3,14 +3,23 @@ files that must exist. :func:`check` runs in ``workflow/rules/common.smk`` right
 schema has filled the defaults, so a dry run refuses a bad config before any job starts,
 naming the keys and values and what was expected. Each method states its own rules (its
 record's ``problems``, :mod:`neurender.methods`); this module asks every registered one.
+:func:`check_renamed` runs before the schema, so that a key an older release named
+differently fails with its new name rather than as an unknown key.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
+import yaml
+
 from neurender import methods, user_paths
+
+#: Top-level config keys renamed since they were introduced: old key -> (new key, the
+#: release that renamed it).
+RENAMED: dict[str, tuple[str, str]] = {"simplify": ("simplification", "0.2")}
 
 
 class ConfigError(ValueError):
@@ -29,3 +38,27 @@ def check(config: Mapping[str, Any]) -> None:
     found = problems(config)
     if found:
         raise ConfigError("config: " + "; ".join(found))
+
+
+def check_renamed(config: Mapping[str, Any], configfiles: Iterable[str | Path] = ()) -> None:
+    """Raise :class:`ConfigError` for each top-level key of ``config`` that
+    :data:`RENAMED` lists, naming its new key and those of ``configfiles`` (YAML, as
+    Snakemake's ``--configfile``) that set it; nothing if ``config`` has none."""
+    found = []
+    for old, (new, release) in RENAMED.items():
+        if old not in config:
+            continue
+        files = [str(path) for path in configfiles if old in _top_level_keys(path)]
+        where = ", ".join(files) if files else "the --config arguments"
+        found.append(
+            f"config key '{old}' was renamed to '{new}' (neurender {release}); "
+            f"rename the section in {where}"
+        )
+    if found:
+        raise ConfigError("; ".join(found))
+
+
+def _top_level_keys(path: str | Path) -> set[str]:
+    """The top-level keys of a YAML config file (none for a file that is not a mapping)."""
+    data = yaml.safe_load(Path(path).read_text())
+    return set(data) if isinstance(data, dict) else set()

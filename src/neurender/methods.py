@@ -13,7 +13,7 @@ from neurender.metaballs.method import METHOD as METABALLS
 from neurender.method import Method, Rule
 from neurender.ndr.method import METHOD as NDR
 from neurender.prt.method import METHOD as PRT
-from neurender.simplify.method import METHOD as SIMPLIFICATION
+from neurender.simplification.method import METHOD as SIMPLIFICATION
 
 METHODS: tuple[Method, ...] = (PRT, NDR, METABALLS, SIMPLIFICATION)
 

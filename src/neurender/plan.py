@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from neurender import costs, io
+from neurender import config, costs, io
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The factor within which ``--check`` accepts a stage's estimate (docs/cluster.md).
@@ -54,6 +54,7 @@ def load_config(configfiles: Sequence[str]) -> dict:
     cfg = yaml.safe_load((ROOT / "config/config.yaml").read_text())
     for path in configfiles:
         update_config(cfg, yaml.safe_load(Path(path).read_text()))
+    config.check_renamed(cfg, [ROOT / "config/config.yaml", *configfiles])
     validate(cfg, str(ROOT / "workflow/schemas/config.schema.yaml"))
     return cfg
 

@@ -123,12 +123,12 @@ def config_paths(config: Mapping) -> Iterator[tuple[str, str]]:
         yield f"ndr.user_objects.{name}", path
     yield "ndr.user_probes_dir", ndr["user_probes_dir"]
     yield "metaballs.user_scenes", config["metaballs"]["user_scenes"]
-    for name, entry in config["simplify"]["user_assets"].items():
-        yield f"simplify.user_assets.{name}.path", entry["path"]
+    for name, entry in config["simplification"]["user_assets"].items():
+        yield f"simplification.user_assets.{name}.path", entry["path"]
 
 
 #: Keys whose file is a mesh that names other files (MTL, textures, glTF buffers).
-ASSET_KEYS = ("ndr.user_objects.", "simplify.user_assets.")
+ASSET_KEYS = ("ndr.user_objects.", "simplification.user_assets.")
 
 
 def _inputs(key: str, path: str) -> list[str]:

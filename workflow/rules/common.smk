@@ -9,8 +9,10 @@ import neurender.config
 import neurender.methods
 from neurender.user_paths import as_input, files_of, made_by_the_workflow
 
-# Validate (and fill defaults) before any job runs: unknown keys and wrong types fail here,
-# then the rules between keys (neurender/config.py), naming the keys and values.
+# Validate (and fill defaults) before any job runs: a key an older release named
+# differently fails with its new name, unknown keys and wrong types fail here, then the
+# rules between keys (neurender/config.py), naming the keys and values.
+neurender.config.check_renamed(config, workflow.configfiles)
 validate(config, schema="../schemas/config.schema.yaml")
 neurender.config.check(config)
 

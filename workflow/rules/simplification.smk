@@ -1,12 +1,12 @@
 # Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3:
 # reference renders, QEM and classic bakes, optimisation (and its GLB/OBJ export),
-# held-out evaluation; built-in cases and the user's assets (simplify.user_assets).
+# held-out evaluation; built-in cases and the user's assets (simplification.user_assets).
 # Helpers (params and input functions): workflow/rules/helpers/simplification.smk.
 
 
-rule simplify_prepare:
+rule simplification_prepare:
     input:
-        unpack(simplify_prepare_inputs),
+        unpack(simplification_prepare_inputs),
     output:
         train_images="results/simplification/{case}/reference_train.exr",
         test_images="results/simplification/{case}/reference_test.exr",
@@ -17,23 +17,23 @@ rule simplify_prepare:
         baked_albedo="results/simplification/{case}/baked_albedo.png",
         stats="results/simplification/{case}/stats.csv",
     log:
-        "results/logs/simplify_prepare/{case}.log",
+        "results/logs/simplification_prepare/{case}.log",
     benchmark:
-        "results/benchmarks/simplify_prepare/{case}.tsv"
+        "results/benchmarks/simplification_prepare/{case}.tsv"
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
-        **scheduler_resources("simplify_prepare"),
+        **scheduler_resources("simplification_prepare"),
     params:
-        cfg=simplify_prepare_params,
+        cfg=simplification_prepare_params,
     script:
-        "../scripts/simplify_prepare.py"
+        "../scripts/simplification_prepare.py"
 
 
-rule simplify_optimise:
+rule simplification_optimise:
     input:
-        unpack(simplify_optimise_inputs),
+        unpack(simplification_optimise_inputs),
         lowpoly="results/simplification/{case}/lowpoly.npz",
         train_images="results/simplification/{case}/reference_train.exr",
         train_views="results/simplification/{case}/views_train.csv",
@@ -48,23 +48,23 @@ rule simplify_optimise:
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
     log:
-        "results/logs/simplify_optimise/{case}.log",
+        "results/logs/simplification_optimise/{case}.log",
     benchmark:
-        "results/benchmarks/simplify_optimise/{case}.tsv"
+        "results/benchmarks/simplification_optimise/{case}.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: config["simplify"]["threads"]
+    threads: config["simplification"]["threads"]
     resources:
-        **scheduler_resources("simplify_optimise"),
+        **scheduler_resources("simplification_optimise"),
     params:
-        cfg=simplify_optimise_params,
+        cfg=simplification_optimise_params,
     script:
-        "../scripts/simplify_optimise.py"
+        "../scripts/simplification_optimise.py"
 
 
-rule simplify_evaluate:
+rule simplification_evaluate:
     input:
-        unpack(simplify_evaluate_inputs),
+        unpack(simplification_evaluate_inputs),
     output:
         metrics=report(
             "results/simplification/metrics.csv",
@@ -93,23 +93,23 @@ rule simplify_evaluate:
             labels={"figure": "loss curves"},
         ),
     log:
-        "results/logs/simplify_evaluate/simplify_evaluate.log",
+        "results/logs/simplification_evaluate/simplification_evaluate.log",
     benchmark:
-        "results/benchmarks/simplify_evaluate/simplify_evaluate.tsv"
+        "results/benchmarks/simplification_evaluate/simplification_evaluate.tsv"
     conda:
         "../envs/neurender.yaml"
     threads: workflow.cores
     resources:
-        **scheduler_resources("simplify_evaluate"),
+        **scheduler_resources("simplification_evaluate"),
     params:
-        cfg=simplify_evaluate_params(),
+        cfg=simplification_evaluate_params(),
     script:
-        "../scripts/simplify_evaluate.py"
+        "../scripts/simplification_evaluate.py"
 
 
-rule simplify_viewer:
+rule simplification_viewer:
     input:
-        unpack(simplify_prepare_inputs),
+        unpack(simplification_prepare_inputs),
         lowpoly="results/simplification/{case}/lowpoly.npz",
         baked_albedo="results/simplification/{case}/baked_albedo.png",
         baked_normal="results/simplification/{case}/baked_normal.png",
@@ -120,23 +120,23 @@ rule simplify_viewer:
     output:
         viewer="results/simplification/viewers/{case}.json",
     log:
-        "results/logs/simplify_viewer/{case}.log",
+        "results/logs/simplification_viewer/{case}.log",
     benchmark:
-        "results/benchmarks/simplify_viewer/{case}.tsv"
+        "results/benchmarks/simplification_viewer/{case}.tsv"
     conda:
         "../envs/neurender.yaml"
     threads: 1
     resources:
-        **scheduler_resources("simplify_viewer"),
+        **scheduler_resources("simplification_viewer"),
     params:
-        cfg=simplify_viewer_params,
+        cfg=simplification_viewer_params,
     script:
-        "../scripts/simplify_viewer.py"
+        "../scripts/simplification_viewer.py"
 
 
-rule simplify_mesh_figure:
+rule simplification_mesh_figure:
     input:
-        unpack(simplify_prepare_inputs),
+        unpack(simplification_prepare_inputs),
         lowpoly="results/simplification/{case}/lowpoly.npz",
         mesh="results/simplification/{case}/optimised.npz",
     output:
@@ -146,15 +146,15 @@ rule simplify_mesh_figure:
             labels={"case": "{case}", "figure": "meshes (3D)"},
         ),
     log:
-        "results/logs/simplify_mesh_figure/{case}.log",
+        "results/logs/simplification_mesh_figure/{case}.log",
     benchmark:
-        "results/benchmarks/simplify_mesh_figure/{case}.tsv"
+        "results/benchmarks/simplification_mesh_figure/{case}.tsv"
     conda:
         "../envs/neurender.yaml"
     threads: 1
     resources:
-        **scheduler_resources("simplify_mesh_figure"),
+        **scheduler_resources("simplification_mesh_figure"),
     params:
-        cfg=simplify_viewer_params,
+        cfg=simplification_viewer_params,
     script:
-        "../scripts/simplify_mesh_figure.py"
+        "../scripts/simplification_mesh_figure.py"

@@ -1,0 +1,187 @@
+"""The simplification stage's jobs, one per rule of ``workflow/rules/simplification.smk``.
+
+Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
+``(inputs, outputs, params, threads)``. Use cases: ``head`` (normal-map baking and joint
+simplification of the detailed head, grey Lambertian), ``metaballs`` (a ray-marched
+implicit surface converted to a textured mesh: albedo and normal maps) and each user asset
+(a mesh file with its material, ``params["asset"]``, also a textured mesh); see
+:mod:`neurender.simplification.assets`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+
+from neurender import io, viewer_data
+from neurender.mitsuba_setup import require_mitsuba
+from neurender.simplification import (
+    CASE_FILES,
+    EXPORT_FILES,
+    assets,
+    bake,
+    evaluate,
+    export,
+    figures,
+    formats,
+    mesh_ops,
+    optimise,
+    summary,
+    views,
+)
+from neurender.simplification.viewer import simplification_view
+
+
+def case_views(cfg: dict, case: str, split: str, kind: str) -> list[views.View]:
+    """Training or test views of a use case, over the asset's camera range ``kind``."""
+    count = cfg["train_views"] if split == "train" else cfg["test_views"]
+    return views.sample_views(
+        count,
+        cfg["seed"],
+        f"{case}-{split}",
+        cfg["camera_distance"],
+        cfg["fov"],
+        *assets.VIEW_RANGES[kind],
+        cfg["light_distance"],
+        cfg["light_cone"],
+    )
+
+
+def simplification_prepare(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Reference images (train/test EXR + view CSVs), the QEM atlas
+    mesh and the classic bakes of one use case."""
+    started = time.perf_counter()
+    case = params["case"]
+    mi, _ = require_mitsuba(params["device"])
+    asset = assets.load(case, params)
+    for split in ("train", "test"):
+        split_views = case_views(params, case, split, asset.views)
+        formats.write_images(outputs[f"{split}_images"], asset.references(mi, split_views, split))
+        io.write_csv(outputs[f"{split}_views"], views.views_frame(split_views))
+    v, f = mesh_ops.decimate(asset.vertices, asset.faces, asset.triangles)
+    low = mesh_ops.uv_atlas(v, f, params["texture_size"])
+    formats.save_lowpoly(outputs["lowpoly"], low, asset.albedo, asset.to_asset)
+    normal_map, colour_map = bake.bake(
+        low, asset.vertices, asset.faces, params["texture_size"], asset.colour_fn, asset.normal_fn
+    )
+    formats.write_texture(outputs["baked_normal"], normal_map)
+    formats.write_texture(
+        outputs["baked_albedo"],
+        np.full_like(normal_map, asset.albedo) if colour_map is None else colour_map,
+    )
+    stats = {
+        "reference_triangles": len(asset.faces),
+        "lowpoly_triangles": len(f),
+        "triangle_fraction": len(f) / len(asset.faces),
+        "texture_size": params["texture_size"],
+        "prepare_seconds": time.perf_counter() - started,
+    }
+    io.write_csv(
+        outputs["stats"],
+        pd.DataFrame([{"case": case, "quantity": k, "value": v} for k, v in stats.items()]),
+    )
+
+
+def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The QEM mesh's vertices and normal map (and, where the colour
+    varies, its albedo map) optimised through Mitsuba against the training references;
+    the result also as GLB and OBJ + MTL + PNGs in the asset's own units. The albedo map
+    starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
+    of their own albedo), else from grey; an asset of uniform albedo (stored with its
+    ``lowpoly`` file) keeps it."""
+    case = params["case"]
+    mi, dr = require_mitsuba(params["device"])
+    # One Dr.Jit thread makes the gradient scatter-adds, and so the result, deterministic.
+    dr.set_thread_count(threads)
+    low = formats.load_lowpoly(inputs["lowpoly"])
+    references = optimise.References(
+        views.views_from_frame(io.read_csv(inputs["train_views"])),
+        formats.read_images(inputs["train_images"]),
+    )
+    size = params["texture_size"]
+    flat = np.broadcast_to([0.5, 0.5, 1.0], (size, size, 3)).copy()
+    constant = formats.load_albedo(inputs["lowpoly"])
+    if "initial_albedo" in inputs:
+        # A user asset's own texture (or colours), transferred to the atlas by the classic
+        # bake, is the initial guess (paper 3: "texture maps from the reference scene").
+        albedo = formats.read_texture(inputs["initial_albedo"])
+    else:
+        albedo = constant if constant is not None else np.full((size, size, 3), 0.5)
+    settings = optimise.OptimiseConfig.from_stage(params, optimise_albedo=constant is None)
+    positions, normal_map, albedo_map, loss = optimise.optimise(
+        mi, dr, optimise.Start(low, flat, albedo), references, settings
+    )
+    if albedo_map is None:
+        albedo_map = np.full_like(normal_map, constant)
+    io.save_npz(outputs["mesh"], positions=positions)
+    formats.write_texture(outputs["normal"], normal_map)
+    formats.write_texture(outputs["albedo"], albedo_map)
+    loss.insert(0, "case", case)
+    io.write_csv(outputs["loss"], loss)
+    files = {k: outputs[k] for k in ("glb", "obj", "mtl", "texture", "normal_texture")}
+    to_asset = formats.load_to_asset(inputs["lowpoly"])
+    export.export(files, low, positions, albedo_map, normal_map, to_asset)
+
+
+def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant of every case rendered from its held-out views (for user assets also
+    the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
+    the stage's timings on the job's ``threads`` cores (the workflow's; the optimisation
+    jobs ran with ``params["optimise_threads"]`` each), and the targets."""
+    started = time.perf_counter()
+    mi, dr = require_mitsuba(params["device"])
+    rows, crops = [], {}
+    for case in params["cases"]:
+        files = {kind: inputs[f"{case}_{kind}"] for kind in CASE_FILES}
+        exports = (
+            {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
+            if case in params["user_assets"]
+            else {}
+        )
+        case_rows, crops[case] = evaluate.evaluate_case(mi, dr, case, files, params, exports)
+        rows += case_rows
+    frame = pd.DataFrame(rows)
+    io.write_csv(outputs["metrics_views"], frame)
+    keys = ["method", "dataset", "model", "split", "metric"]
+    io.write_csv(outputs["metrics"], frame.groupby(keys, sort=False)["value"].mean().reset_index())
+    figures.comparison_figure(crops, outputs["figure"])
+    losses = [io.read_csv(inputs[f"{case}_loss"]) for case in params["cases"]]
+    figures.loss_figure(losses, outputs["loss_figure"])
+    stats = pd.concat([io.read_csv(inputs[f"{case}_stats"]) for case in params["cases"]])
+    elapsed = time.perf_counter() - started
+    stats = summary.with_timings(stats, losses, elapsed, params["optimise_threads"], threads)
+    io.write_csv(outputs["stats"], stats)
+    io.write_csv(outputs["targets"], summary.targets(frame, stats))
+
+
+def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The report's interactive view of one use case (:mod:`neurender.simplification.viewer`):
+    the reference (rebuilt from the case's keys, or read from the user's file) and the
+    QEM, classic-bake and optimised meshes with their triangle counts and held-out PSNR
+    (``metrics``)."""
+    case = params["case"]
+    asset = assets.load(case, params)
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "split", "metric", "value"])
+    view = simplification_view(case, asset, inputs, metrics)
+    viewer_data.write(
+        outputs["viewer"],
+        "meshes",
+        f"Simplification {case}: reference, QEM, classic bake and ours (one camera)",
+        view,
+    )
+
+
+def simplification_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The case's reference, QEM and optimised meshes in 3D with wireframes (PyVista)."""
+    asset = assets.load(params["case"], params)
+    low = formats.load_lowpoly(inputs["lowpoly"])
+    ours = io.load_npz(inputs["mesh"])["positions"]
+    figures.meshes_figure(
+        params["case"],
+        (asset.vertices, asset.faces),
+        (low.positions, low.faces),
+        (ours, low.faces),
+        outputs["png"],
+    )

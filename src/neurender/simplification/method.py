@@ -1,0 +1,116 @@
+"""The appearance-driven simplification as the rest of the project sees it
+(:class:`neurender.method.Method`): its config rules, the work of each of its rules and
+its report section's files. Read at DAG time: imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from neurender import asset_files
+from neurender.method import Method, ReportInputs, Rule, Units
+from neurender.simplification import CASES, VARIANTS
+from neurender.user_paths import file_problem, made_by_the_workflow
+
+STAGE = "simplification"
+
+
+def problems(config: Mapping[str, Any]) -> Iterator[str]:
+    """The config rules of the simplification's section the schema cannot state."""
+    section = config["simplification"]
+    detail = 2 * section["head_vertices"]
+    if "head" in section["cases"] and section["head_triangles"] >= detail:
+        yield (
+            f"simplification.head_triangles = {section['head_triangles']}: expected fewer than the "
+            f"detailed head's about {detail} triangles (2 x simplification.head_vertices)"
+        )
+    for name, entry in section["user_assets"].items():
+        key = f"simplification.user_assets.{name}"
+        path = entry["path"]
+        if name in CASES:
+            yield f"{key}: the name of a built-in case ({', '.join(CASES)}); pick another"
+        if Path(path).suffix.lower() not in asset_files.TRIMESH_SUFFIXES:
+            suffixes = ", ".join(asset_files.TRIMESH_SUFFIXES)
+            yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
+        elif made_by_the_workflow(path):
+            continue
+        elif file_problem(path):
+            yield f"{key}.path = {path!r}: file {file_problem(path)}"
+        else:
+            yield from (
+                f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)
+            )
+
+
+def _detail(s: Mapping[str, Any]) -> float:
+    """The detailed reference's size: the head's vertices or the metaballs' grid cells / 20."""
+    return max(s["head_vertices"], s["metaball_grid"] ** 3 / 20)
+
+
+def _prepare(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Mitsuba samples of the training and test views, and the reference's building."""
+    s = cfg["simplification"]
+    pixels = s["resolution"] ** 2
+    rendered = s["train_views"] * s["reference_spp"] + s["test_views"] * s["test_spp"]
+    detail = _detail(s)
+    return (rendered * pixels + 40 * detail) / 1e6, (detail + s["texture_size"] ** 2) / 1e4
+
+
+def _reference(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The reference rebuilt."""
+    detail = _detail(cfg["simplification"])
+    return detail / 1e6, detail / 1e4
+
+
+def _optimise(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Differentiable Mitsuba samples: steps x views per step x samples x pixels."""
+    s = cfg["simplification"]
+    pixels = s["resolution"] ** 2
+    return s["steps"] * s["batch"] * s["spp"] * pixels / 1e6, s["texture_size"] ** 2 / 1e4
+
+
+def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every case's variants rendered from the test views."""
+    s = cfg["simplification"]
+    pixels = s["resolution"] ** 2
+    cases = max(len(s["cases"]), 1)
+    return cases * len(VARIANTS) * s["test_views"] * s["eval_spp"] * pixels / 1e6, pixels / 1e3
+
+
+def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
+    """The tables, figures (one of meshes per case) and viewers (one per case) of the
+    simplification's report section; nothing when there is no case."""
+    section = config["simplification"]
+    cases = tuple(section["cases"]) + tuple(section["user_assets"])
+    tables = ("targets", "metrics", "stats") if cases else ()
+    figures = ("comparison", "loss_curves") if cases else ()
+    figures += tuple(f"{case}_meshes" for case in cases)
+    return ReportInputs(
+        tables=[f"results/simplification/{t}.csv" for t in tables],
+        figures=[f"results/simplification/figures/{name}.png" for name in figures],
+        viewers=[f"results/simplification/viewers/{case}.json" for case in cases],
+    )
+
+
+METHOD = Method(
+    key="simplification",
+    title="Appearance-driven simplification",
+    citation=(
+        "Jon Hasselgren, Jacob Munkberg, Jaakko Lehtinen, Miika Aittala, Samuli Laine. "
+        "Appearance-Driven Automatic 3D Model Simplification. Eurographics Symposium on "
+        "Rendering 2021."
+    ),
+    link="https://doi.org/10.2312/sr.20211293",
+    config_sections=("simplification",),
+    problems=problems,
+    report_inputs=report_inputs,
+    rules={
+        "simplification_prepare": Rule(STAGE, _prepare, gpu=True),
+        "simplification_optimise": Rule(STAGE, _optimise, gpu=True),
+        "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True),
+        "simplification_viewer": Rule(STAGE, _reference),
+        "simplification_mesh_figure": Rule(STAGE, _reference),
+    },
+)

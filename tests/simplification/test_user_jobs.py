@@ -1,0 +1,82 @@
+"""A user asset through the stage's three jobs as the workflow calls them, and a bad asset
+stopping the first job before it writes anything."""
+
+import numpy as np
+import pandas as pd
+import pytest
+import trimesh
+
+from neurender.asset_files import AssetFileError
+from neurender.simplification import CASE_FILES, EXPORT_FILES, jobs
+
+PREPARED = {
+    "train_images": "reference_train.exr",
+    "test_images": "reference_test.exr",
+    "train_views": "views_train.csv",
+    "test_views": "views_test.csv",
+    "lowpoly": "lowpoly.npz",
+    "baked_normal": "baked_normal.png",
+    "baked_albedo": "baked_albedo.png",
+    "stats": "stats.csv",
+}
+OPTIMISED = {
+    "mesh": "optimised.npz",
+    "normal": "optimised_normal.png",
+    "albedo": "optimised_albedo.png",
+    "loss": "loss.csv",
+    **EXPORT_FILES,
+}
+
+
+def entry(path, **keys):
+    return {"path": str(path), "ratio": 0.05, "triangles": None, "views": "all_around", **keys}
+
+
+def test_a_user_asset_runs_through_prepare_optimise_and_evaluate(bumpy_glb, stage_cfg, tmp_path):
+    case = tmp_path / "bumpy"
+    case.mkdir()
+    prepared = {k: str(case / v) for k, v in PREPARED.items()}
+    params = {**stage_cfg, "case": "bumpy", "asset": entry(bumpy_glb)}
+    jobs.simplification_prepare({"asset": str(bumpy_glb)}, prepared, params, 1)
+    stats = pd.read_csv(prepared["stats"]).set_index("quantity")["value"]
+    assert stats["reference_triangles"] == 5120 and stats["lowpoly_triangles"] <= 256
+    optimised = {k: str(case / v) for k, v in OPTIMISED.items()}
+    inputs = {**prepared, "initial_albedo": prepared["baked_albedo"]}
+    jobs.simplification_optimise(inputs, optimised, {**stage_cfg, "case": "bumpy"}, 1)
+    evaluated = {
+        k: str(tmp_path / f"{k}.{ext}")
+        for k, ext in (
+            ("metrics", "csv"),
+            ("metrics_views", "csv"),
+            ("targets", "csv"),
+            ("stats", "csv"),
+            ("figure", "png"),
+            ("loss_figure", "png"),
+        )
+    }
+    files = {f"bumpy_{k}": str(case / v) for k, v in {**CASE_FILES, **EXPORT_FILES}.items()}
+    params = {**stage_cfg, "cases": ["bumpy"], "user_assets": ["bumpy"]}
+    jobs.simplification_evaluate(files, evaluated, params, 1)
+    metrics = pd.read_csv(evaluated["metrics"])
+    psnr = metrics[metrics["metric"] == "psnr"].set_index("model")["value"]
+    assert set(psnr.index) == {"qem", "baked", "ours", "ours_glb", "ours_obj"}
+    assert abs(psnr["ours_glb"] - psnr["ours"]) < 0.1 and abs(psnr["ours_obj"] - psnr["ours"]) < 0.1
+    targets = pd.read_csv(evaluated["targets"])
+    export_checks = targets[targets["check"].str.startswith("exported")]
+    assert len(export_checks) == 2 and export_checks["met"].all()
+
+
+@pytest.mark.parametrize("problem", ["nan", "budget"])
+def test_a_bad_asset_stops_prepare_before_any_output(stage_cfg, tmp_path, problem):
+    box = trimesh.creation.box().subdivide()
+    if problem == "nan":
+        box.vertices[3] = np.nan
+    box.export(tmp_path / "box.ply")
+    out = tmp_path / "out"
+    out.mkdir()
+    outputs = {k: str(out / v) for k, v in PREPARED.items()}
+    params = {**stage_cfg, "case": "box", "asset": entry(tmp_path / "box.ply", triangles=100)}
+    message = "not finite" if problem == "nan" else "triangles = 100 gives a budget of 100"
+    with pytest.raises(AssetFileError, match=message):
+        jobs.simplification_prepare({}, outputs, params, 1)
+    assert list(out.iterdir()) == []

@@ -1,4 +1,0 @@
-from neurender.jobs import run
-from neurender.simplify import jobs
-
-run(snakemake, jobs.simplify_mesh_figure)
