@@ -42,7 +42,7 @@ def test_diffuse_torch_equals_numpy():
 
 
 def test_glossy_exact_matches_brute_force_quadrature():
-    """R_i = integral_{n.w > 0} y_i L dw by a fine lat-long grid (the step's edge costs accuracy)."""
+    """R_i = integral_{n.w > 0} y_i L dw on a fine lat-long grid."""
     rng = np.random.default_rng(2)
     light = rng.normal(size=(16, 3))
     dirs, solid_angle = _latlong()
@@ -96,4 +96,4 @@ def test_pipeline_transfer_of_an_unoccluded_plane_is_unshadowed():
     # sets within that noise over sqrt(8) (a wrong A_l would be off by 0.1 or more).
     assert np.abs(diffuse - want_d).max() < 0.02
     assert np.abs(diffuse.mean((0, 1)) - want_d).max() < 6e-3
-    assert np.abs(glossy.mean((0, 1)) - want_g).max() < 0.01 * np.abs(want_g).max()
+    assert np.abs(glossy.mean((0, 1)) - want_g).max() < 0.02 * np.abs(want_g).max()
