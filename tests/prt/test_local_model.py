@@ -100,9 +100,12 @@ def test_local_mean_is_an_average_over_the_window():
     assert np.allclose(feats[:, i, j], (p[i, j] - mean) / (2.5 * spacing), atol=1e-5)
 
 
-@pytest.mark.parametrize("material", ["diffuse", "glossy"])
-def test_onnx_export_equals_pytorch(tmp_path, material):
-    model = _trained_like(LocalConfig(material=material))
+@pytest.mark.parametrize(
+    ("material", "architecture"),
+    [("diffuse", "dilated"), ("glossy", "dilated"), ("diffuse", "unet")],
+)
+def test_onnx_export_equals_pytorch(tmp_path, material, architecture):
+    model = _trained_like(LocalConfig(material=material, architecture=architecture, widths=(8, 16)))
     x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
     export_local(model, x, tmp_path / "net.onnx")
     got = OnnxNetwork(tmp_path / "net.onnx")(x)  # a batch of 3: the batch axis is dynamic
@@ -111,26 +114,34 @@ def test_onnx_export_equals_pytorch(tmp_path, material):
     assert np.abs(got - want).max() <= 1e-4 * np.abs(want).max()
 
 
+LIGHT = np.random.default_rng(9).normal(size=(16, 3))
+
+
 def _split(seed, frames=4, n=16):
     pos = np.stack([_bumpy(n, seed * 100 + f) for f in range(frames)]).astype(np.float32)
     nrm = np.stack([grid_normals(p) for p in pos]).astype(np.float32)
     # A synthetic "shadowing": the unshadowed transfer darkened where z is low.
     dark = 1.0 - 0.5 * (pos[..., 2:3] < 0)
     diffuse = (unshadowed.diffuse(nrm.astype(np.float64), 4) * dark).astype(np.float32)
-    glossy = np.zeros((frames, n, n, 3, 16), np.float32)
+    coeffs = unshadowed.glossy_polynomial(LIGHT)
+    glossy = unshadowed.glossy(nrm.astype(np.float64), coeffs).reshape(frames, n, n, 3, 16)
+    glossy = (glossy * dark[..., None]).astype(np.float32)
     return Split(pos, nrm, diffuse, glossy, np.zeros((frames, 1), np.float32))
 
 
-def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path):
+@pytest.mark.parametrize("material", ["diffuse", "glossy"])
+def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, material):
     train, val = _split(0), _split(1)
     cfg = {"seed": 0, "epochs": 40, "batch_size": 2, "lr": 1e-2, "device": "cpu"}
-    local_cfg = LocalConfig(width=8, dilations=(1, 2), window=5)
+    local_cfg = LocalConfig(material=material, width=8, dilations=(1, 2), window=5)
     ckpt = tmp_path / "local.pt"
-    model = train_local(train, val, local_cfg, cfg, 1, str(ckpt), str(tmp_path / "loss.csv"))
+    model = train_local(
+        train, val, local_cfg, cfg, 1, str(ckpt), str(tmp_path / "loss.csv"), light=LIGHT
+    )
     x = torch.from_numpy(
         np.moveaxis(np.concatenate([val.positions, val.normals], -1), -1, 1).copy()
     )
-    target = np.moveaxis(val.diffuse, -1, 1)
+    target = val.targets(material)
     base = np.abs(model.unshadowed(x[:, 3:]).numpy() - target).mean()
     with torch.no_grad():
         err = np.abs(model(x).numpy() - target).mean()
