@@ -19,9 +19,9 @@ at ``reference_directions``. Metrics per frame, averaged per (family, strength):
   radiance ``R`` (RGB) under the config's light probe (sky);
 * ``ssim_diffuse``: SSIM of the rendered diffuse images (:mod:`neurender.prt.scores`).
 
-Writes ``benchmarks/results/prt_generalisation.csv`` (tidy: object, model, family,
-strength, metric, value; ``family = test`` for the test frames, strength 0 there) and a
-sidecar ``.json`` with the command, commit, budget and seconds of every stage. A study,
+Writes ``benchmarks/results/prt_generalisation.csv`` (tidy: object, epochs, model,
+family, strength, metric, value; ``family = test`` for the test frames, strength 0 there)
+and a sidecar ``.json`` with the command, commit, budget and seconds of every stage. A study,
 outside CI. Run with ``nice -n 15`` (torch uses one thread)::
 
     nice -n 15 python benchmarks/prt_generalisation.py --epochs 8
@@ -153,6 +153,7 @@ def main() -> None:
             rows.append(
                 {
                     "object": name,
+                    "epochs": args.epochs,
                     "model": model,
                     "family": family,
                     "strength": strength,
