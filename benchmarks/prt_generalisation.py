@@ -25,6 +25,8 @@ and a sidecar ``.json`` with the command, commit, budget and seconds of every st
 outside CI. Run with ``nice -n 15`` (torch uses one thread)::
 
     nice -n 15 python benchmarks/prt_generalisation.py --epochs 8
+
+The committed CSV merges runs of one object each (``--out`` per run, then ``--merge``).
 """
 
 from __future__ import annotations
@@ -123,6 +125,24 @@ def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
     return io.load_npz(gim_file), io.load_npz(seq_file)
 
 
+def merge(csvs: list[str], out: Path) -> None:
+    """One CSV and sidecar from several runs' (e.g. one object each, run side by side)."""
+    parts, runs = [], []
+    for csv in csvs:
+        parts.append(pd.read_csv(csv))
+        meta = json.loads(Path(csv).with_suffix(".json").read_text())
+        meta["command"] = meta["command"].split(" --out ")[0]
+        runs.append(meta)
+    io.write_csv(out, pd.concat(parts, ignore_index=True))
+    note = (
+        "One run per object and budget (the objects' runs side by side, each one torch "
+        "thread at nice 15 on the shared 2-core machine), merged with --merge. Seconds are "
+        "wall seconds under that sharing."
+    )
+    with io.atomic_path(out.with_suffix(".json")) as tmp_path:
+        tmp_path.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--objects", nargs="+", default=["head", "cloth"])
@@ -131,7 +151,11 @@ def main() -> None:
     parser.add_argument("--per-strength", type=int, default=2, help="frames per strength")
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's (smoke)")
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/prt_generalisation.csv"))
+    parser.add_argument("--merge", nargs="+", help="merge these runs' CSVs (and sidecars) only")
     args = parser.parse_args()
+    if args.merge:
+        merge(args.merge, Path(args.out))
+        return
     torch.set_num_threads(1)
     config = load_config(args.configfile)
     prt, model_cfg = config["prt"], config["prt_model"]
