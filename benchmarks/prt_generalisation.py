@@ -157,6 +157,9 @@ def main() -> None:
         merge(args.merge, Path(args.out))
         return
     torch.set_num_threads(1)
+    commit = subprocess.run(  # at the start: the code that measured
+        ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False
+    ).stdout.strip()
     config = load_config(args.configfile)
     prt, model_cfg = config["prt"], config["prt_model"]
     transfer_cfg = {
@@ -261,9 +264,6 @@ def main() -> None:
                 .to_string(),
                 flush=True,
             )
-    commit = subprocess.run(
-        ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False
-    ).stdout.strip()
     meta = {
         "command": "nice -n 15 python " + " ".join(sys.argv),
         "commit": commit,
