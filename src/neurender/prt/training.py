@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 
+import numpy as np
 import torch
 from torch.utils.data import TensorDataset
 
 from neurender import train
 from neurender.nn.unet import ResUNet, count_parameters
+from neurender.prt import unshadowed
 from neurender.prt.frames import Split
-from neurender.prt.model import Normalisation, build_network
+from neurender.prt.local_model import LocalConfig, ShadowingTransfer
+from neurender.prt.model import Normalisation, build_network, raw_inputs
 from neurender.tensorboard_log import Previews
 
 log = logging.getLogger(__name__)
@@ -79,3 +83,65 @@ def train_deepprt(
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
     return model
+
+
+def _shadowing_loss(model, batch) -> tuple[torch.Tensor, dict[str, float]]:
+    """L1 of the core's normalised shadowing term (the unshadowed part is exact)."""
+    x, y = batch
+    return torch.nn.functional.l1_loss(model.shadowing(x), model.encode(x, y)), {}
+
+
+def train_local(
+    train_split: Split,
+    val_split: Split,
+    local_cfg: LocalConfig,
+    cfg: dict,
+    threads: int,
+    checkpoint: str,
+    log_csv: str,
+    light: np.ndarray | None = None,
+    data_key: str = "",
+) -> ShadowingTransfer:
+    """Train the shadowing variant (:mod:`neurender.prt.local_model`) with the shared loop.
+
+    Args:
+        local_cfg: its architecture and material.
+        cfg: training keys (:meth:`neurender.train.TrainConfig.from_stage`) and ``seed``.
+        light: ``(K, 3)`` SH light of the glossy targets (needed for glossy).
+
+    Returns:
+        the trained wrapper with the best validation epoch's weights.
+    """
+    torch.manual_seed(cfg["seed"])
+    material = local_cfg.material
+    coeffs = None
+    if material == "glossy":
+        if light is None:
+            raise ValueError("training the glossy shadowing variant needs the SH light")
+        coeffs = unshadowed.glossy_polynomial(light[: local_cfg.n_bands**2])
+    model = ShadowingTransfer(local_cfg, coeffs)
+    x_train = raw_inputs(train_split)
+    model.fit_normalisation(x_train, train_split.targets(material))
+    make = lambda x, s: TensorDataset(  # noqa: E731
+        torch.from_numpy(x), torch.from_numpy(np.ascontiguousarray(s.targets(material)))
+    )
+    config = train.TrainConfig.from_stage(cfg, threads)
+    start = time.perf_counter()
+    train.fit(
+        model,
+        make(x_train, train_split),
+        make(raw_inputs(val_split), val_split),
+        _shadowing_loss,
+        config,
+        checkpoint,
+        log_csv,
+        extra_state={
+            "local_config": dataclasses.asdict(local_cfg),
+            "glossy_coeffs": coeffs,
+            "material": material,
+            "parameters": count_parameters(model),
+        },
+        data_key=data_key,
+    )
+    log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
+    return model.eval()

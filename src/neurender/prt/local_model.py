@@ -1,0 +1,221 @@
+"""A DeepPRT variant that learns shadowing as a local rule (issue 27).
+
+The paper's network (:mod:`neurender.prt.model`) maps the whole P and N images to the
+whole transfer, so it can memorise the training animation's global pose. This variant:
+
+* predicts only what shadowing removes: the target is the true transfer minus the
+  analytic unshadowed transfer of the input normals (:mod:`neurender.prt.unshadowed`),
+  which is exact for any shape, so where nothing occludes the answer is right without
+  learning;
+* sees positions only relative to their neighbourhood: ``P`` minus its ``window x window``
+  mean (average pooling), divided by ``window / 2`` times the frame's mean grid-edge
+  length. These inputs do not change under a translation or a uniform scaling of the
+  whole shape (visibility does not either), and their magnitudes not under a rotation;
+* keeps normals (and the position differences) in the world frame: the transfer's SH are
+  world-frame, so a rotation of the whole shape must rotate the answer, which a local
+  frame would only give with a per-pixel SH rotation in the graph (not done here);
+* has a receptive field sized to the distance over which a surface shadows itself:
+  3x3 convolutions with growing dilations (:class:`DilatedNet`; 33 px for the default
+  dilations 1, 2, 4, 8, 1, half a 64-px geometry image), or any other core network
+  (e.g. :class:`neurender.nn.unet.ResUNet`, whose sigmoid the target scaling allows for).
+
+:class:`ShadowingTransfer` is the graph a renderer ships, with the same contract as
+:class:`neurender.prt.model.TransferNetwork`: raw ``(B, 6, n, n)`` P (world units) and N
+(unit vectors) images in, ``(B, C, n, n)`` transfer in physical units out (``C = K``
+diffuse, ``3 K`` glossy colour-major); everything it derives is computed in the graph.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F  # noqa: N812 - the usual name
+from torch import nn
+
+from neurender import train
+from neurender.nn.inference import export_onnx
+from neurender.nn.unet import ResUNet
+from neurender.prt import unshadowed
+
+#: Core networks a :class:`LocalConfig` can name.
+ARCHITECTURES = ("dilated", "unet")
+
+
+@dataclasses.dataclass
+class LocalConfig:
+    """Architecture of the variant (stored in its checkpoint)."""
+
+    n_bands: int = 4
+    material: str = "diffuse"
+    architecture: str = "dilated"  # one of ARCHITECTURES
+    width: int = 48  # dilated: channels of every layer
+    dilations: tuple[int, ...] = (1, 2, 4, 8, 1)  # dilated: one 3x3 layer each
+    widths: tuple[int, ...] = (16, 32, 64, 128, 192)  # unet: channels per level
+    blocks: int = 1  # unet: ResNet blocks per level
+    window: int = 15  # side of the local-mean window, pixels (odd)
+
+    def __post_init__(self):
+        if self.architecture not in ARCHITECTURES:
+            raise ValueError(f"architecture {self.architecture!r}: expected one of {ARCHITECTURES}")
+        if self.window < 1 or self.window % 2 == 0:
+            raise ValueError(f"window {self.window}: expected an odd number of pixels >= 1")
+        self.dilations, self.widths = tuple(self.dilations), tuple(self.widths)
+
+    @property
+    def out_channels(self) -> int:
+        k = self.n_bands**2
+        return k if self.material == "diffuse" else 3 * k
+
+
+class PixelNorm(nn.Module):
+    """Layer norm over the channels of each pixel alone (with a learnt affine map).
+
+    Unlike batch or group norm it uses no statistics over the image, so an output pixel
+    depends only on its receptive field (a local rule stays local).
+    """
+
+    def __init__(self, channels: int, eps: float = 1e-5):
+        super().__init__()
+        self.weight = nn.Parameter(torch.ones(1, channels, 1, 1))
+        self.bias = nn.Parameter(torch.zeros(1, channels, 1, 1))
+        self.eps = eps
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        mean = x.mean(1, keepdim=True)
+        var = (x - mean).pow(2).mean(1, keepdim=True)
+        return (x - mean) / torch.sqrt(var + self.eps) * self.weight + self.bias
+
+
+class DilatedNet(nn.Module):
+    """3x3 convolutions with the given dilations (:class:`PixelNorm`, ReLU), then a 1x1 head.
+
+    ``(B, cin, H, W) -> (B, cout, H, W)``, any H and W; receptive field
+    ``1 + 2 sum(dilations)`` pixels. The head starts at zero, so an untrained network
+    predicts no shadowing (the unshadowed transfer).
+    """
+
+    def __init__(self, cin: int, cout: int, width: int, dilations: tuple[int, ...]):
+        super().__init__()
+        layers, c = [], cin
+        for d in dilations:
+            layers += [
+                nn.Conv2d(c, width, 3, padding=d, dilation=d),
+                PixelNorm(width),
+                nn.ReLU(inplace=True),
+            ]
+            c = width
+        self.body = nn.Sequential(*layers)
+        self.head = nn.Conv2d(c, cout, 1)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.body(x))
+
+
+def receptive_field(dilations: tuple[int, ...]) -> int:
+    """Pixels seen by one output of :class:`DilatedNet` along each axis."""
+    return 1 + 2 * sum(dilations)
+
+
+def local_features(x: torch.Tensor, window: int) -> torch.Tensor:
+    """``(B, 6, n, n)`` network inputs from raw P and N images ``(B, 6, n, n)``: P minus its
+    ``window``-pixel local mean (borders: the mean of the pixels inside) over ``window / 2``
+    mean grid-edge lengths of the frame, and N unchanged."""
+    p, nrm = x[:, :3], x[:, 3:]
+    mean = F.avg_pool2d(p, window, stride=1, padding=window // 2, count_include_pad=False)
+    du = (p[:, :, :, 1:] - p[:, :, :, :-1]).norm(dim=1).mean(dim=(1, 2))
+    dv = (p[:, :, 1:, :] - p[:, :, :-1, :]).norm(dim=1).mean(dim=(1, 2))
+    spacing = (0.5 * (du + dv)).clamp_min(1e-12).reshape(-1, 1, 1, 1)
+    return torch.cat([(p - mean) / (spacing * (window / 2)), nrm], 1)
+
+
+class ShadowingTransfer(nn.Module):
+    """Raw P and N images ``(B, 6, n, n)`` to transfer ``(B, C, n, n)`` in physical units:
+    the unshadowed transfer of N plus ``core(local_features) * t_scale + t_offset``.
+
+    Buffers: ``t_offset``, ``t_scale`` ``(1, C, 1, 1)`` (the shadowing target's affine
+    normalisation) and, for glossy, ``glossy_coeffs`` ``(M, 3 K)``
+    (:func:`neurender.prt.unshadowed.glossy_polynomial` of the training light).
+    """
+
+    def __init__(self, cfg: LocalConfig, glossy_coeffs: np.ndarray | None = None):
+        super().__init__()
+        self.cfg = cfg
+        c = cfg.out_channels
+        if cfg.architecture == "dilated":
+            self.core = DilatedNet(6, c, cfg.width, cfg.dilations)
+        else:
+            self.core = ResUNet(6, c, list(cfg.widths), cfg.blocks)
+        self.register_buffer("t_offset", torch.zeros(1, c, 1, 1))
+        self.register_buffer("t_scale", torch.ones(1, c, 1, 1))
+        if cfg.material == "glossy":
+            if glossy_coeffs is None:
+                raise ValueError("a glossy ShadowingTransfer needs the light's glossy_coeffs")
+            self.register_buffer(
+                "glossy_coeffs", torch.as_tensor(glossy_coeffs, dtype=torch.float32)
+            )
+        else:
+            self.glossy_coeffs = None
+
+    def unshadowed(self, normals: torch.Tensor) -> torch.Tensor:
+        """``(B, C, n, n)`` unshadowed transfer of normal images ``(B, 3, n, n)``."""
+        n = normals.permute(0, 2, 3, 1)
+        if self.glossy_coeffs is None:
+            t = unshadowed.diffuse(n, self.cfg.n_bands)
+        else:
+            t = unshadowed.glossy(n, self.glossy_coeffs)
+        return t.permute(0, 3, 1, 2)
+
+    def shadowing(self, x: torch.Tensor) -> torch.Tensor:
+        """The core network's normalised output ``(B, C, n, n)`` (what training fits)."""
+        return self.core(local_features(x, self.cfg.window))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.unshadowed(x[:, 3:]) + self.shadowing(x) * self.t_scale + self.t_offset
+
+    def fit_normalisation(self, x: np.ndarray, targets: np.ndarray, margin: float = 0.1) -> None:
+        """Set ``t_offset``, ``t_scale`` from training inputs ``(F, 6, n, n)`` and targets
+        ``(F, C, n, n)``: the shadowing term ``targets - unshadowed`` divided per channel by
+        its standard deviation (dilated), or mapped to [0, 1] with ``margin`` on both
+        sides (unet, whose output is a sigmoid)."""
+        with torch.no_grad():
+            normals = torch.from_numpy(np.ascontiguousarray(x[:, 3:], np.float32))
+            gap = targets - self.unshadowed(normals).numpy()
+        if self.cfg.architecture == "dilated":
+            offset = np.zeros(gap.shape[1])
+            scale = np.maximum(gap.std(axis=(0, 2, 3)), 1e-6)
+        else:
+            lo, hi = gap.min(axis=(0, 2, 3)), gap.max(axis=(0, 2, 3))
+            span = np.maximum(hi - lo, 1e-6)
+            offset, scale = lo - margin * span, (1 + 2 * margin) * span
+        self.t_offset.copy_(torch.as_tensor(offset, dtype=torch.float32).reshape(1, -1, 1, 1))
+        self.t_scale.copy_(torch.as_tensor(scale, dtype=torch.float32).reshape(1, -1, 1, 1))
+
+    def encode(self, x: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """Targets ``(B, C, n, n)`` as the normalised shadowing term the core should output."""
+        return (targets - self.unshadowed(x[:, 3:]) - self.t_offset) / self.t_scale
+
+
+def load_local(checkpoint: str | Path) -> ShadowingTransfer:
+    """The eval-mode :class:`ShadowingTransfer` of a checkpoint of
+    :func:`neurender.prt.training.train_local` (best validation epoch)."""
+    state = train.load_checkpoint(checkpoint)
+    extra = state["extra"]
+    coeffs = extra.get("glossy_coeffs")
+    model = ShadowingTransfer(LocalConfig(**extra["local_config"]), coeffs)
+    model.load_state_dict(state["model"])
+    return model.eval()
+
+
+def export_local(model: ShadowingTransfer, example: np.ndarray, out: str | Path) -> float:
+    """Write the shipped ONNX file of a trained variant, checked against PyTorch on the
+    first two frames of raw inputs ``example`` ``(F, 6, n, n)`` (the first twice if F = 1)
+    relative to the output's magnitude (transfer is in physical units)."""
+    from neurender.nn.inference import prepare_for_inference
+
+    x = torch.from_numpy(np.ascontiguousarray(example[np.arange(2) % len(example)], np.float32))
+    return export_onnx(prepare_for_inference(model), x, out, rtol=1e-4)

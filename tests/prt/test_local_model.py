@@ -1,0 +1,150 @@
+import numpy as np
+import pytest
+import torch
+
+from neurender.geometry import grid_normals
+from neurender.nn.inference import OnnxNetwork
+from neurender.prt import unshadowed
+from neurender.prt.frames import Split
+from neurender.prt.local_model import (
+    DilatedNet,
+    LocalConfig,
+    ShadowingTransfer,
+    export_local,
+    load_local,
+    local_features,
+    receptive_field,
+)
+from neurender.prt.training import train_local
+
+
+def _bumpy(n=16, seed=0, shift=(0.0, 0.0, 0.0)):
+    t = np.linspace(-1.0, 1.0, n)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    rng = np.random.default_rng(seed)
+    z = 0.3 * np.sin(3 * xx + rng.uniform(0, 6)) * np.cos(2 * yy + rng.uniform(0, 6))
+    return np.stack([xx, yy, z], -1) + np.asarray(shift)
+
+
+def _raw(positions):
+    x = np.concatenate([positions, grid_normals(positions)], -1)
+    return np.ascontiguousarray(np.moveaxis(x, -1, 0)[None], np.float32)
+
+
+def _trained_like(cfg, seed=0):
+    """A wrapper with random (non-zero) weights everywhere, as after training."""
+    torch.manual_seed(seed)
+    coeffs = None
+    if cfg.material == "glossy":
+        coeffs = unshadowed.glossy_polynomial(np.random.default_rng(seed).normal(size=(16, 3)))
+    model = ShadowingTransfer(cfg, coeffs)
+    with torch.no_grad():
+        for p in model.core.parameters():
+            p.normal_(0, 0.2)
+        model.t_scale.uniform_(0.5, 1.5)
+        model.t_offset.uniform_(-0.1, 0.1)
+    return model.eval()
+
+
+def test_receptive_field_of_the_dilated_net():
+    """An impulse at the centre reaches exactly 1 + 2 sum(dilations) pixels of the output."""
+    net = DilatedNet(1, 1, 4, (1, 2, 4))
+    with torch.no_grad():
+        net.head.weight.fill_(1.0)
+    x = torch.zeros(2, 1, 41, 41, requires_grad=True)
+    net.eval()(x)[0, 0, 20, 20].backward()
+    reached = (x.grad[0, 0].abs() > 0).any(0).nonzero()
+    assert reached.max() - reached.min() + 1 == receptive_field((1, 2, 4)) == 15
+
+
+def test_zero_network_on_a_flat_plane_returns_the_unshadowed_transfer():
+    t = np.linspace(-1, 1, 16)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    x = _raw(np.stack([xx, yy, np.zeros_like(xx)], -1))
+    model = ShadowingTransfer(LocalConfig()).eval()  # the head starts at zero
+    out = model(torch.from_numpy(x)).detach().numpy()
+    want = unshadowed.diffuse(np.array([0.0, 0.0, 1.0]), 4)
+    assert np.allclose(out[0].reshape(16, -1).T, want, atol=1e-6)
+
+
+@pytest.mark.parametrize("architecture", ["dilated", "unet"])
+def test_output_does_not_change_when_the_shape_is_translated(architecture):
+    cfg = LocalConfig(architecture=architecture, widths=(8, 16))
+    model = _trained_like(cfg)
+    a = model(torch.from_numpy(_raw(_bumpy()))).detach()
+    b = model(torch.from_numpy(_raw(_bumpy(shift=(5.0, -3.0, 12.0))))).detach()
+    assert a.abs().max() > 0.1
+    assert torch.allclose(a, b, atol=2e-5 * float(a.abs().max()))
+
+
+def test_features_do_not_change_when_the_shape_is_scaled():
+    p = _bumpy()
+    a = local_features(torch.from_numpy(_raw(p)), 7)
+    b = local_features(torch.from_numpy(_raw(4.0 * p)), 7)
+    assert torch.allclose(a, b, atol=1e-5)
+
+
+def test_local_mean_is_an_average_over_the_window():
+    """Feature = (p - mean of the window inside the image) / (window/2 * mean edge length)."""
+    p = _bumpy(n=12)
+    feats = local_features(torch.from_numpy(_raw(p)), 5)[0, :3].numpy()
+    edges = np.concatenate(
+        [
+            np.linalg.norm(np.diff(p, axis=1), axis=-1).ravel()[None],
+            np.linalg.norm(np.diff(p, axis=0), axis=-1).ravel()[None],
+        ]
+    )
+    spacing = 0.5 * (edges[0].mean() + edges[1].mean())
+    i, j = 0, 7  # a border pixel: its window is cut to rows 0..2, columns 5..9
+    mean = p[0:3, 5:10].reshape(-1, 3).mean(0)
+    assert np.allclose(feats[:, i, j], (p[i, j] - mean) / (2.5 * spacing), atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("material", "architecture"),
+    [("diffuse", "dilated"), ("glossy", "dilated"), ("diffuse", "unet")],
+)
+def test_onnx_export_equals_pytorch(tmp_path, material, architecture):
+    model = _trained_like(LocalConfig(material=material, architecture=architecture, widths=(8, 16)))
+    x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
+    export_local(model, x, tmp_path / "net.onnx")
+    got = OnnxNetwork(tmp_path / "net.onnx")(x)  # a batch of 3: the batch axis is dynamic
+    want = model(torch.from_numpy(x)).detach().numpy()
+    assert got.shape == want.shape == (3, 16 if material == "diffuse" else 48, 16, 16)
+    assert np.abs(got - want).max() <= 1e-4 * np.abs(want).max()
+
+
+LIGHT = np.random.default_rng(9).normal(size=(16, 3))
+
+
+def _split(seed, frames=4, n=16):
+    pos = np.stack([_bumpy(n, seed * 100 + f) for f in range(frames)]).astype(np.float32)
+    nrm = np.stack([grid_normals(p) for p in pos]).astype(np.float32)
+    # A synthetic "shadowing": the unshadowed transfer darkened where z is low.
+    dark = 1.0 - 0.5 * (pos[..., 2:3] < 0)
+    diffuse = (unshadowed.diffuse(nrm.astype(np.float64), 4) * dark).astype(np.float32)
+    coeffs = unshadowed.glossy_polynomial(LIGHT)
+    glossy = unshadowed.glossy(nrm.astype(np.float64), coeffs).reshape(frames, n, n, 3, 16)
+    glossy = (glossy * dark[..., None]).astype(np.float32)
+    return Split(pos, nrm, diffuse, glossy, np.zeros((frames, 1), np.float32))
+
+
+@pytest.mark.parametrize("material", ["diffuse", "glossy"])
+def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, material):
+    train, val = _split(0), _split(1)
+    cfg = {"seed": 0, "epochs": 40, "batch_size": 2, "lr": 1e-2, "device": "cpu"}
+    local_cfg = LocalConfig(material=material, width=8, dilations=(1, 2), window=5)
+    ckpt = tmp_path / "local.pt"
+    model = train_local(
+        train, val, local_cfg, cfg, 1, str(ckpt), str(tmp_path / "loss.csv"), light=LIGHT
+    )
+    x = torch.from_numpy(
+        np.moveaxis(np.concatenate([val.positions, val.normals], -1), -1, 1).copy()
+    )
+    target = val.targets(material)
+    base = np.abs(model.unshadowed(x[:, 3:]).numpy() - target).mean()
+    with torch.no_grad():
+        err = np.abs(model(x).numpy() - target).mean()
+        loaded = load_local(ckpt)(x).numpy()
+    assert err < 0.7 * base
+    assert np.allclose(loaded, model(x).detach().numpy(), atol=1e-6)
