@@ -1,9 +1,10 @@
 """What a method tells the rest of the project: one :class:`Method` record per method
 package (``<package>/method.py``), listed once in :mod:`neurender.methods`.
 
-The config checks, the cost model, the plan, the report and the report rule read these
-records and nothing else of a method, so a new method is a new package with its record,
-and no shared module changes. A record's module is read when Snakemake builds the DAG: it
+The config checks, the cost model, the plan, the targets' thresholds, the report and the
+report rule read these records (and the tables each names, beside its code) and nothing
+else of a method, so a new method is a new package with its record and tables, and no
+shared module changes. A record's module is read when Snakemake builds the DAG: it
 imports only plain Python, numpy and pandas (never torch or Mitsuba).
 """
 
