@@ -1,10 +1,16 @@
-"""The method registry: every rule and table row belongs to a registered method, the
-records load at DAG time without torch or Mitsuba, and a method registered only here (a
-toy fifth one) reaches the config checks, the cost model, the plan and the report."""
+"""The method registry: every rule belongs to a registered method, each method's tables
+lie beside its code and hold its rows only, the records load at DAG time without torch or
+Mitsuba, and a method registered only here (a toy fifth one, with its own published
+numbers, headline rows and targets) reaches the config checks, the cost model, the plan,
+the targets' thresholds and the report."""
 
+import dataclasses
+import fnmatch
+import importlib
 import re
 import subprocess
 import sys
+import tomllib
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -13,8 +19,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from neurender import config, costs, io, methods, plan
-from neurender.method import Method, ReportInputs, Rule, Units
+from neurender import config, costs, io, methods, plan, tables
+from neurender.method import TABLE_COLUMNS, Method, ReportInputs, Rule, Units
 from neurender.report import build
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,14 +55,31 @@ TOY = Method(
     problems=_toy_problems,
     report_inputs=_toy_inputs,
     rules={"toy_render": Rule("toy stage", _toy_work, gpu=True), "toy_summary": Rule("toy stage")},
+    tables_dir=Path("written by the toy fixture"),
 )
+
+#: The toy method's own tables, as its package would hold them.
+TOY_TABLES = {
+    "paper_numbers": [("toy", "Toy Table 2", "all scenes", "ToyNet", "psnr", 29.5, "")],
+    "headlines": [
+        ("toy", "test PSNR", "metrics", "d", "m", "test", "psnr")
+        + ("Toy Table 2", "all scenes", "ToyNet", "psnr")
+    ],
+    "targets": [("toy", "psnr", 28.0, "test PSNR at least")],
+}
 
 
 @pytest.fixture
-def toy(monkeypatch):
-    """The registry with the toy method after the four built-in ones."""
-    monkeypatch.setattr(methods, "METHODS", (*methods.METHODS, TOY))
-    return TOY
+def toy(monkeypatch, tmp_path):
+    """The registry with the toy method after the four built-in ones, its tables in a
+    folder of its own."""
+    for kind, rows in TOY_TABLES.items():
+        pd.DataFrame(rows, columns=TABLE_COLUMNS[kind]).to_csv(
+            tmp_path / f"{kind}.csv", index=False
+        )
+    record = dataclasses.replace(TOY, tables_dir=tmp_path)
+    monkeypatch.setattr(methods, "METHODS", (*methods.METHODS, record))
+    return record
 
 
 @pytest.fixture(scope="module")
@@ -86,14 +109,55 @@ def test_every_config_section_of_the_schema_belongs_to_one_method_or_to_all():
     assert sections - set(claimed) == {"report"}  # the report's title: every method's
 
 
-def test_every_row_of_the_shared_tables_belongs_to_a_registered_method():
-    keys = {m.key for m in methods.METHODS}
-    for name in ("paper_numbers.csv", "headlines.csv", "targets.csv"):
-        table = pd.read_csv(ROOT / "src/neurender/report" / name, keep_default_na=False)
-        assert set(table.method) <= keys, name
-    # and every method has targets, as its summary checks them
-    targets = pd.read_csv(ROOT / "src/neurender/report/targets.csv")
-    assert keys <= set(targets.method)
+def test_every_methods_tables_lie_in_its_package_and_hold_only_its_rows():
+    records = {}
+    for path in (ROOT / "src/neurender").glob("*/method.py"):
+        module = importlib.import_module(f"neurender.{path.parent.name}.method")
+        records[module.METHOD.key] = module.METHOD, path.parent
+    assert set(records) == {m.key for m in methods.METHODS}
+    for key, (method, package) in records.items():
+        assert Path(str(method.tables_dir)) == package, key
+        for kind, columns in TABLE_COLUMNS.items():
+            raw = pd.read_csv(package / f"{kind}.csv", keep_default_na=False)
+            assert tuple(raw.columns) == columns, (key, kind)
+            assert set(raw.method) == {key}, (key, kind)
+            assert len(method.table(kind)) == len(raw)
+    # no shared copy is left to drift from them
+    assert not list((ROOT / "src/neurender/report").glob("*.csv"))
+
+
+def test_every_headline_names_one_published_number_of_its_method():
+    for method in methods.METHODS:
+        published = method.table("paper_numbers")
+        keys = ["source", "setting", "model", "metric"]
+        for h in method.table("headlines").itertuples():
+            if h.paper_source:
+                wanted = (h.paper_source, h.paper_setting, h.paper_model, h.paper_metric)
+                found = sum(row == wanted for row in published[keys].itertuples(False, None))
+                assert found == 1, (method.key, h.label)
+
+
+def test_every_methods_tables_ship_in_the_wheel():
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    globs = pyproject["tool"]["setuptools"]["package-data"]["neurender"]
+    for method in methods.METHODS:
+        folder = Path(str(method.tables_dir)).relative_to(ROOT / "src/neurender")
+        for kind in TABLE_COLUMNS:
+            name = (folder / f"{kind}.csv").as_posix()
+            assert any(fnmatch.fnmatch(name, g) for g in globs), name
+
+
+def test_a_table_with_other_columns_or_another_methods_rows_is_refused(tmp_path):
+    record = dataclasses.replace(TOY, tables_dir=tmp_path)
+    rows = pd.DataFrame(
+        [("toy", "psnr", 28.0, ""), ("prt", "ssim", 0.97, "")], columns=TABLE_COLUMNS["targets"]
+    )
+    rows.drop(columns="description").to_csv(tmp_path / "targets.csv", index=False)
+    with pytest.raises(ValueError, match=r"targets.csv: columns .*; expected .*'description'"):
+        record.table("targets")
+    rows.to_csv(tmp_path / "targets.csv", index=False)
+    with pytest.raises(ValueError, match=r"rows of method \['prt'\]; expected only 'toy'"):
+        record.table("targets")
 
 
 def test_every_report_input_lies_in_its_methods_results_folder(smoke):
@@ -141,6 +205,13 @@ def test_a_registered_methods_rules_are_costed_and_planned(toy, smoke):
     assert plan.summary(table).loc["toy stage", "jobs"] == 2
 
 
+def test_a_registered_methods_targets_are_read_from_its_own_table(toy):
+    assert tables.threshold("toy", "psnr") == 28.0
+    assert tables.threshold("prt", "ssim") == 0.97  # the built-in ones are still found
+    with pytest.raises(KeyError, match=r"method 'toy' has no target 'ssim'"):
+        tables.threshold("toy", "ssim")
+
+
 def test_a_registered_method_gets_a_report_section(toy, tmp_path):
     res = tmp_path / "results" / "toy"
     rows = {"method": "toy", "dataset": "d", "model": "m", "split": "test", "metric": "psnr"}
@@ -152,6 +223,8 @@ def test_a_registered_method_gets_a_report_section(toy, tmp_path):
     assert '<h2 id="toy">Toy: a method registered by a test</h2>' in html
     assert "A Toy Method" in html and "<td>31.25</td>" in html
     assert html.count("has not been run") == 4  # the four built-in methods
+    # its headline row: our 31.25 beside the 29.5 of its own published numbers
+    assert "test PSNR" in html and "<td>29.5</td>" in html and "Toy Table 2" in html
 
 
 def test_the_report_rule_reads_every_methods_report_inputs(smoke):

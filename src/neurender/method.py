@@ -1,9 +1,10 @@
 """What a method tells the rest of the project: one :class:`Method` record per method
 package (``<package>/method.py``), listed once in :mod:`neurender.methods`.
 
-The config checks, the cost model, the plan, the report and the report rule read these
-records and nothing else of a method, so a new method is a new package with its record,
-and no shared module changes. A record's module is read when Snakemake builds the DAG: it
+The config checks, the cost model, the plan, the targets' thresholds, the report and the
+report rule read these records (and the tables each names, beside its code) and nothing
+else of a method, so a new method is a new package with its record and tables, and no
+shared module changes. A record's module is read when Snakemake builds the DAG: it
 imports only plain Python, numpy and pandas (never torch or Mitsuba).
 """
 
@@ -11,7 +12,10 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping
+from importlib.resources.abc import Traversable
 from typing import Any
+
+import pandas as pd
 
 #: ``(time units, memory units)`` of one job: its work, which ``costs.csv``'s per-rule lines
 #: turn into seconds and MB (:mod:`neurender.costs`).
@@ -58,15 +62,39 @@ class ReportInputs:
     viewers: list[str]
 
 
+#: The tables a method keeps beside its code (``<tables_dir>/<kind>.csv``), by kind: their
+#: columns, each a string but ``value`` (a float). ``paper_numbers``: its published
+#: numbers, each row citing its table or section (``source``); ``headlines``: its report
+#: summary's rows, which of our numbers (``table``, ``dataset``, ``model``, ``split``,
+#: ``metric``) stands beside which published one (``paper_*``, empty when the paper
+#: reports none); ``targets``: its targets' thresholds (``name``, ``value``), read by
+#: :func:`neurender.tables.threshold`.
+TABLE_COLUMNS = {
+    "paper_numbers": ("method", "source", "setting", "model", "metric", "value", "note"),
+    "headlines": (
+        "method",
+        "label",
+        "table",
+        "dataset",
+        "model",
+        "split",
+        "metric",
+        "paper_source",
+        "paper_setting",
+        "paper_model",
+        "paper_metric",
+    ),
+    "targets": ("method", "name", "value", "description"),
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class Method:
     """One method of the project.
 
     Attributes:
         key: its results folder (``results/<key>/``), its report section and the value of
-            the ``method`` column of its rows in every table, among them its published
-            numbers (``report/paper_numbers.csv``), headline rows (``report/headlines.csv``)
-            and target thresholds (``report/targets.csv``).
+            the ``method`` column of its rows in every table.
         title: the report section's heading; the part before a colon is its short name.
         citation: the publication the method and its published numbers come from.
         link: the publication's DOI (or URL).
@@ -76,6 +104,9 @@ class Method:
             breaks that the schema cannot state, one sentence each naming keys and values.
         report_inputs: ``report_inputs(config)``: the files of its report section.
         rules: every rule of its rules file, by name.
+        tables_dir: the folder of its published numbers, headline rows and target
+            thresholds (:data:`TABLE_COLUMNS`, read by :meth:`table`): its package's,
+            ``importlib.resources.files(__package__)``, so that they ship with its code.
     """
 
     key: str
@@ -86,8 +117,25 @@ class Method:
     problems: Callable[[Mapping[str, Any]], Iterator[str]]
     report_inputs: Callable[[Mapping[str, Any]], ReportInputs]
     rules: Mapping[str, Rule]
+    tables_dir: Traversable
 
     @property
     def short_title(self) -> str:
         """The name the report's summary tables give the method."""
         return self.title.split(":")[0]
+
+    def table(self, kind: str) -> pd.DataFrame:
+        """Its table ``kind`` of :data:`TABLE_COLUMNS` (``<tables_dir>/<kind>.csv``):
+        those columns, strings (empty cells are empty strings) but ``value`` (floats).
+        ``ValueError`` naming the file for other columns or a row of another method."""
+        columns = TABLE_COLUMNS[kind]
+        path = self.tables_dir.joinpath(f"{kind}.csv")
+        dtypes = {c: float if c == "value" else str for c in columns}
+        with path.open() as f:
+            frame = pd.read_csv(f, keep_default_na=False, dtype=dtypes)
+        if tuple(frame.columns) != columns:
+            raise ValueError(f"{path}: columns {list(frame.columns)}; expected {list(columns)}")
+        others = sorted(set(frame.method) - {self.key})
+        if others:
+            raise ValueError(f"{path}: rows of method {others}; expected only {self.key!r}")
+        return frame

@@ -1,6 +1,7 @@
 """The registered methods, in report order: the one list :mod:`neurender.config`,
 :mod:`neurender.costs` (and through it :mod:`neurender.plan` and the rules' scheduler
-resources), :mod:`neurender.report.build` and ``workflow/rules/report.smk`` loop over.
+resources), :mod:`neurender.report.build`, :func:`neurender.tables.threshold` and
+``workflow/rules/report.smk`` loop over.
 
 A method registers by adding its package's record (``<package>/method.py``,
 :class:`neurender.method.Method`) to :data:`METHODS`. Imports nothing heavy: the
@@ -8,6 +9,8 @@ Snakefile reads it when it builds the DAG.
 """
 
 from __future__ import annotations
+
+import pandas as pd
 
 from neurender.metaballs.method import METHOD as METABALLS
 from neurender.method import Method, Rule
@@ -48,3 +51,9 @@ def by_key(key: str) -> Method:
         if method.key == key:
             return method
     raise KeyError(f"no registered method {key!r} (registered: {[m.key for m in METHODS]})")
+
+
+def table(kind: str) -> pd.DataFrame:
+    """Every method's table ``kind`` (:meth:`neurender.method.Method.table`: its published
+    numbers, headline rows or target thresholds), in report order."""
+    return pd.concat([method.table(kind) for method in METHODS], ignore_index=True)

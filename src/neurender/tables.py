@@ -2,8 +2,9 @@
 
 A tidy row is one measurement: ``method, dataset, model, split[, keys...], metric, value``
 (``keys`` such as ``frame`` or ``view`` sit between ``split`` and ``metric``). A target is
-one check of a measured value against a threshold from ``report/targets.csv`` (the data
-file beside the papers' numbers), stated as met or missed.
+one check of a measured value against a threshold from the method's ``targets.csv``
+(beside its code and its published numbers: :meth:`neurender.method.Method.table`),
+stated as met or missed.
 """
 
 from __future__ import annotations
@@ -11,11 +12,11 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterable, Mapping
-from functools import cache
-from importlib import resources
 from typing import Any
 
 import pandas as pd
+
+from neurender import methods
 
 TIDY_COLUMNS = ("method", "dataset", "model", "split", "metric", "value")
 TARGET_COLUMNS = ("method", "subject", "check", "measured", "met")
@@ -56,16 +57,11 @@ def target_table(method: str, targets: Iterable[Target]) -> pd.DataFrame:
     return frame.astype({"measured": float, "met": bool})
 
 
-@cache
-def _thresholds() -> pd.DataFrame:
-    with resources.files("neurender").joinpath("report/targets.csv").open() as f:
-        return pd.read_csv(f, keep_default_na=False)
-
-
 def threshold(method: str, name: str) -> float:
-    """A target's threshold from ``report/targets.csv`` (``KeyError`` naming it if absent)."""
-    table = _thresholds()
-    sel = table[(table["method"] == method) & (table["name"] == name)]
+    """The threshold of target ``name`` of the registered method ``method``, from its
+    ``targets.csv`` (``KeyError`` naming both if absent)."""
+    table = methods.by_key(method).table("targets")
+    sel = table[table["name"] == name]
     if sel.empty:
-        raise KeyError(f"report/targets.csv has no target {name!r} for method {method!r}")
+        raise KeyError(f"the targets.csv of method {method!r} has no target {name!r}")
     return float(sel["value"].iloc[0])

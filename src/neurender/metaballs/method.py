@@ -6,6 +6,7 @@ and their report section's files. Read at DAG time: imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from importlib import resources
 from typing import Any
 
 from neurender import checks, io
@@ -119,4 +120,5 @@ METHOD = Method(
         "metaballs_user_scenes": Rule(STAGE),
         "metaballs_viewer": Rule(STAGE, _viewer),
     },
+    tables_dir=resources.files(__package__),
 )

@@ -1,6 +1,6 @@
 """The metaballs stage's summary tables: statistics of the examples and the targets.
 
-Targets (thresholds from ``report/targets.csv``, method ``metaballs``): per network a
+Targets (thresholds from the metaballs' ``targets.csv``, beside this module): per network a
 silhouette IoU and a mean normal error (stricter at the paper's scale, ``W >= 512``),
 better than the isolated-sphere baseline on every metric, and a frame (inputs + network)
 faster than ray marching at the most balls.

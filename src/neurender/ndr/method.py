@@ -6,6 +6,7 @@ imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -155,4 +156,5 @@ METHOD = Method(
         "ndr_user_objects": Rule(STAGE),
         "ndr_viewer": Rule(STAGE, _viewer),
     },
+    tables_dir=resources.files(__package__),
 )

@@ -1,7 +1,7 @@
 """What the NDR stage made and what it cost: split statistics, timings and the targets.
 
 Tables are tidy (:mod:`neurender.tables`); times are wall-clock seconds unless named
-otherwise. Target thresholds come from ``report/targets.csv`` (method ``ndr``).
+otherwise. Target thresholds come from NDR's ``targets.csv`` (beside this module).
 """
 
 from __future__ import annotations

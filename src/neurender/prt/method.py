@@ -6,6 +6,7 @@ time: imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from importlib import resources
 from typing import Any
 
 from neurender import checks
@@ -181,4 +182,5 @@ METHOD = Method(
         "prt_relight": Rule(MODELS),
         "prt_viewer": Rule(MODELS, _viewer),
     },
+    tables_dir=resources.files(__package__),
 )

@@ -1,2 +1,2 @@
 """The HTML report (``results/report.html``): every measured table and figure beside the
-papers' numbers (``paper_numbers.csv``) and our targets (``targets.csv``)."""
+papers' numbers and our targets (each method's tables: :meth:`neurender.method.Method.table`)."""

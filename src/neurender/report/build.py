@@ -2,17 +2,18 @@
 interactive viewers, figures, our tables (collapsed) and the papers' numbers.
 
 The report only shows what the pipeline measured (tidy CSV tables, PNG/GIF figures and
-viewer files that stages wrote under ``results/<method>/``) and the published numbers in
-``paper_numbers.csv`` (each row cites its table or section). The summary takes each
-method's headline rows (``headlines.csv``: our value beside the paper's) and its targets
-(``targets.csv`` of the method, met or missed), and one deployment table: every trained
-network of every method (its ``deployment.csv``, :mod:`neurender.deployment`) beside
-the papers' network times (``paper_numbers.csv`` rows of metric :data:`PAPER_TIME`, whose
-note names the hardware) and our hardware. The sections are the registered methods'
-(:data:`neurender.methods.METHODS`: ``key``, ``title``, ``citation``, ``link``), in that
-order; a method whose stage has not produced anything says so. Figures, viewer data and
-the viewers' code (three.js, bundled in ``static/viewers.min.js``) are embedded, so the
-file opens from disk with no server.
+viewer files that stages wrote under ``results/<method>/``) and each method's published
+numbers (its ``paper_numbers`` table, :meth:`neurender.method.Method.table`: each row
+cites its table or section). The summary takes each method's headline rows (its
+``headlines`` table: our value beside the paper's) and its targets (the ``targets.csv``
+its stage wrote, met or missed), and one deployment table: every trained network of every
+method (its ``deployment.csv``, :mod:`neurender.deployment`) beside the papers' network
+times (``paper_numbers`` rows of metric :data:`PAPER_TIME`, whose note names the
+hardware) and our hardware. The sections are the registered methods'
+(:data:`neurender.methods.METHODS`: ``key``, ``title``, ``citation``, ``link`` and their
+tables), in that order; a method whose stage has not produced anything says so. Figures,
+viewer data and the viewers' code (three.js, bundled in ``static/viewers.min.js``) are
+embedded, so the file opens from disk with no server.
 """
 
 from __future__ import annotations
@@ -37,23 +38,14 @@ from neurender.tables import TIDY_COLUMNS, lookup
 
 #: Tables longer than this many rows are shown collapsed.
 LONG_TABLE_ROWS = 12
-#: The metric of the papers' network times per frame in ``paper_numbers.csv``.
+#: The metric of the papers' network times per frame in the ``paper_numbers`` tables.
 PAPER_TIME = "network_ms_per_frame"
 
 
-def _package_csv(name: str) -> pd.DataFrame:
-    with resources.files("neurender.report").joinpath(name).open() as f:
-        return pd.read_csv(f, keep_default_na=False)
-
-
 def paper_numbers() -> pd.DataFrame:
-    """Published numbers: columns ``method, source, setting, model, metric, value, note``."""
-    return _package_csv("paper_numbers.csv")
-
-
-def headlines() -> pd.DataFrame:
-    """The summary's rows: which of our numbers stands beside which published one."""
-    return _package_csv("headlines.csv")
+    """Every registered method's published numbers: columns ``method, source, setting,
+    model, metric, value, note``."""
+    return methods.table("paper_numbers")
 
 
 def _method_of(path: Path) -> str | None:
@@ -133,10 +125,10 @@ def _embed_image(path: Path) -> str:
     return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
-def _headline_rows(key: str, tables: dict[str, pd.DataFrame]) -> list[dict]:
-    published = paper_numbers()
+def _headline_rows(method: Method, tables: dict[str, pd.DataFrame]) -> list[dict]:
+    published = method.table("paper_numbers")
     rows = []
-    for h in headlines()[lambda t: t.method == key].itertuples():
+    for h in method.table("headlines").itertuples():
         table = tables.get(h.table)
         ours = math.nan
         if table is not None and set(TIDY_COLUMNS) <= set(table.columns):
@@ -144,8 +136,7 @@ def _headline_rows(key: str, tables: dict[str, pd.DataFrame]) -> list[dict]:
         paper = math.nan
         if h.paper_source:
             sel = published[
-                (published.method == key)
-                & (published.source == h.paper_source)
+                (published.source == h.paper_source)
                 & (published.setting == h.paper_setting)
                 & (published.model == h.paper_model)
                 & (published.metric == h.paper_metric)
@@ -246,7 +237,7 @@ def _viewer(path: Path, index: int) -> dict:
 
 def _section(section: Method, tables: list[Path], figures: list[Path], viewers: list[dict]):
     frames = {t.stem: io.read_csv(t) for t in tables}
-    paper = paper_numbers()[lambda p: p.method == section.key].drop(columns="method")
+    paper = section.table("paper_numbers").drop(columns="method")
     rendered = []
     for t in tables:
         body, rows = _render_table(frames[t.stem])
@@ -268,7 +259,7 @@ def _section(section: Method, tables: list[Path], figures: list[Path], viewers: 
         "link": section.link,
         "ran": ran,
         "data_only": ran and "metrics" not in frames,
-        "headlines": _headline_rows(section.key, frames),
+        "headlines": _headline_rows(section, frames),
         "targets": _targets(frames.get("targets")),
         "budget": training_budget(frames["metrics"]) if "metrics" in frames else "",
         "tables": rendered,

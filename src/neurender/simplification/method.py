@@ -6,6 +6,7 @@ its report section's files. Read at DAG time: imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -113,4 +114,5 @@ METHOD = Method(
         "simplification_viewer": Rule(STAGE, _reference),
         "simplification_mesh_figure": Rule(STAGE, _reference),
     },
+    tables_dir=resources.files(__package__),
 )

@@ -46,7 +46,7 @@ def targets(frame: pd.DataFrame, stats: pd.DataFrame) -> pd.DataFrame:
     """Per case: a PSNR gain over QEM, PSNR above the classic bake and a lower coverage
     error than QEM, and where the exports were read back (user assets) the GLB's and the
     OBJ's PSNR within a tolerance of ours; the whole stage within its time
-    budget (thresholds from ``report/targets.csv``)."""
+    budget (thresholds from the simplification's ``targets.csv``)."""
     mean = frame.groupby(["dataset", "model", "metric"])["value"].mean()
     minutes = stats.loc[stats["quantity"] == "stage_seconds", "value"].iloc[0] / 60
     budget, gain_db, export_db = (
