@@ -22,6 +22,7 @@ import yaml
 from neurender import config, costs, io, methods, plan, tables
 from neurender.method import TABLE_COLUMNS, Method, ReportInputs, Rule, Units
 from neurender.report import build
+from neurender.user_paths import UserPath
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,6 +37,10 @@ def _toy_problems(cfg: Mapping) -> Iterator[str]:
 
 def _toy_work(cfg: Mapping, wildcards: Mapping[str, str]) -> Units:
     return cfg["toy"]["size"] ** 2 * int(wildcards["count"]) / 1e6, 2.0
+
+
+def _toy_user_paths(cfg: Mapping) -> Iterator[UserPath]:
+    yield UserPath("toy.scenes", cfg["toy"].get("scenes", ""))
 
 
 def _toy_inputs(cfg: Mapping) -> ReportInputs:
@@ -56,6 +61,7 @@ TOY = Method(
     report_inputs=_toy_inputs,
     rules={"toy_render": Rule("toy stage", _toy_work, gpu=True), "toy_summary": Rule("toy stage")},
     tables_dir=Path("written by the toy fixture"),
+    user_paths=_toy_user_paths,
 )
 
 #: The toy method's own tables, as its package would hold them.
@@ -185,6 +191,37 @@ def test_a_registered_method_is_checked_with_the_config(toy, smoke):
     assert config.problems({**smoke, "toy": {"size": 4}}) == []
     with pytest.raises(config.ConfigError, match=r"toy.size = 0: expected at least 1"):
         config.check({**smoke, "toy": {"size": 0}})
+
+
+def test_a_registered_methods_user_paths_are_checked_for_braces(toy, smoke, tmp_path):
+    scenes = tmp_path / "scenes{v2}.csv"
+    scenes.write_text("x\n")
+    (found,) = config.problems({**smoke, "toy": {"size": 4, "scenes": str(scenes)}})
+    assert found.startswith(f"toy.scenes = {str(scenes)!r}: {scenes} contains '{{v2}}'")
+    # a folder stands for its files: the braces of one of them are refused too
+    (found,) = config.problems({**smoke, "toy": {"size": 4, "scenes": str(tmp_path)}})
+    assert found.startswith(f"toy.scenes = {str(tmp_path)!r}: {scenes} contains")
+    (tmp_path / "scenes.csv").write_text("x\n")
+    cfg = {**smoke, "toy": {"size": 4, "scenes": str(tmp_path / "scenes.csv")}}
+    assert config.problems(cfg) == []
+
+
+def test_a_method_without_user_files_declares_no_user_paths(smoke):
+    fields = {f.name: getattr(TOY, f.name) for f in dataclasses.fields(Method)}
+    bare = Method(**{k: v for k, v in fields.items() if k != "user_paths"})
+    assert list(bare.user_paths(smoke)) == []
+
+
+def test_each_methods_user_paths_lie_in_its_own_config_sections():
+    own = plan.load_config([str(ROOT / "config/examples/own_assets.yaml")])
+    listed = {m.key: [e for e in m.user_paths(own) if e.path] for m in methods.METHODS}
+    assert all(listed.values()), listed  # the example gives every method a user file
+    for method in methods.METHODS:
+        for entry in listed[method.key]:
+            assert entry.key.split(".")[0] in method.config_sections, entry
+            assert entry.asset == entry.key.startswith(
+                ("ndr.user_objects.", "simplification.user_assets.")
+            ), entry
 
 
 def test_a_registered_methods_rules_are_costed_and_planned(toy, smoke):

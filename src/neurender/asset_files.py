@@ -23,7 +23,7 @@ import struct
 from pathlib import Path
 from urllib.parse import unquote
 
-from neurender.user_paths import file_problem
+from neurender.user_paths import UserPath, file_problem, files_of
 
 #: Mesh files trimesh loads with a material or vertex colours.
 TRIMESH_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".off", ".stl")
@@ -189,6 +189,19 @@ def missing(path: str | Path) -> list[str]:
 def asset_inputs(path: str) -> list[str]:
     """The files a job reading the asset depends on besides ``path`` itself."""
     return sorted({str(target) for _, target in references(path)})
+
+
+def user_path_inputs(entry: UserPath) -> list[str]:
+    """The files a user path brings into the DAG: the path, its folder's or glob's files
+    (:func:`neurender.user_paths.files_of`) and, for an asset, the files the mesh names
+    (:func:`asset_inputs`; none when it cannot be read: its method's check names it)."""
+    files = [entry.path, *map(str, files_of(entry.path))]
+    if entry.asset and file_problem(entry.path) is None:
+        try:
+            files += asset_inputs(entry.path)
+        except (OSError, ValueError):
+            pass
+    return files
 
 
 def check(path: str | Path, suffixes: tuple[str, ...], named: bool = True) -> Path:

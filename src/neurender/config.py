@@ -2,20 +2,22 @@
 files that must exist. :func:`check` runs in ``workflow/rules/common.smk`` right after the
 schema has filled the defaults, so a dry run refuses a bad config before any job starts,
 naming the keys and values and what was expected. Each method states its own rules (its
-record's ``problems``, :mod:`neurender.methods`); this module asks every registered one.
+record's ``problems``, :mod:`neurender.methods`); this module asks every registered one,
+and checks every user path the records list (``user_paths``) for braces.
 :func:`check_renamed` runs before the schema, so that a key an older release named
 differently fails with its new name rather than as an unknown key.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from neurender import methods, user_paths
+from neurender import asset_files, methods
+from neurender.user_paths import made_by_the_workflow, wildcard_problem
 
 #: Top-level config keys renamed since they were introduced: old key -> (new key, the
 #: release that renamed it).
@@ -30,7 +32,25 @@ def problems(config: Mapping[str, Any]) -> list[str]:
     """Every rule the (defaults-filled) ``config`` breaks, one sentence each, in the
     order of :data:`neurender.methods.METHODS`."""
     found = [problem for method in methods.METHODS for problem in method.problems(config)]
-    return found + list(user_paths.problems(config))
+    return found + list(wildcard_problems(config))
+
+
+def wildcard_problems(config: Mapping[str, Any]) -> Iterator[str]:
+    """Braces Snakemake would read as a wildcard in a user path of any method (its record's
+    ``user_paths``), in a file of its folder or glob, or in a file a mesh names, one
+    sentence per path naming the key and the file; the workflow's own paths (under
+    ``results/``) are checked as written."""
+    for method in methods.METHODS:
+        for entry in method.user_paths(config):
+            if not entry.path:
+                continue
+            if made_by_the_workflow(entry.path):
+                files = [entry.path]
+            else:
+                files = asset_files.user_path_inputs(entry)
+            problem = next(filter(None, map(wildcard_problem, dict.fromkeys(files))), None)
+            if problem:
+                yield f"{entry.key} = {entry.path!r}: {problem}"
 
 
 def check(config: Mapping[str, Any]) -> None:

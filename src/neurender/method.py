@@ -17,6 +17,8 @@ from typing import Any
 
 import pandas as pd
 
+from neurender.user_paths import UserPath
+
 #: ``(time units, memory units)`` of one job: its work, which ``costs.csv``'s per-rule lines
 #: turn into seconds and MB (:mod:`neurender.costs`).
 Units = tuple[float, float]
@@ -29,6 +31,11 @@ def no_work(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """The work of a rule whose cost does not grow with the config: none beyond its fixed
     cost."""
     return 0.0, 0.0
+
+
+def no_user_paths(cfg: Mapping[str, Any]) -> Iterator[UserPath]:
+    """The user paths of a method that reads no user files: none."""
+    return iter(())
 
 
 def unet_work(widths: list[int]) -> float:
@@ -107,6 +114,9 @@ class Method:
         tables_dir: the folder of its published numbers, headline rows and target
             thresholds (:data:`TABLE_COLUMNS`, read by :meth:`table`): its package's,
             ``importlib.resources.files(__package__)``, so that they ship with its code.
+        user_paths: ``user_paths(config)``: every path the user wrote in its config
+            sections (:class:`neurender.user_paths.UserPath`, empty ones included), which
+            :func:`neurender.config.wildcard_problems` checks for braces; none by default.
     """
 
     key: str
@@ -118,6 +128,7 @@ class Method:
     report_inputs: Callable[[Mapping[str, Any]], ReportInputs]
     rules: Mapping[str, Rule]
     tables_dir: Traversable
+    user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
 
     @property
     def short_title(self) -> str:

@@ -18,8 +18,9 @@ import glob
 import os
 import re
 import stat
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable
 from pathlib import Path
+from typing import NamedTuple
 
 #: A ``{name}`` or ``{name,constraint}`` that Snakemake reads as a wildcard in any input
 #: path (its ``WILDCARD_REGEX``, which has no escape for literal braces).
@@ -109,52 +110,15 @@ def wildcard_problem(path: str | os.PathLike) -> str | None:
     )
 
 
-def config_paths(config: Mapping) -> Iterator[tuple[str, str]]:
-    """Every path the user wrote in the (defaults-filled) ``config``, as ``(key, path)``
-    (``key`` spelled as in messages, e.g. ``ndr.user_objects.rock``); empty ones left out."""
-    prt, ndr = config["prt"], config["ndr"]
-    for section in ("user_meshes", "user_probes"):
-        for name, path in prt[section].items():
-            yield f"prt.{section}.{name}", path
-    for name, entry in prt["user_sequences"].items():
-        for field in ("frames", "test_frames"):
-            yield f"prt.user_sequences.{name}.{field}", entry[field]
-    for name, path in ndr["user_objects"].items():
-        yield f"ndr.user_objects.{name}", path
-    yield "ndr.user_probes_dir", ndr["user_probes_dir"]
-    yield "metaballs.user_scenes", config["metaballs"]["user_scenes"]
-    for name, entry in config["simplification"]["user_assets"].items():
-        yield f"simplification.user_assets.{name}.path", entry["path"]
+class UserPath(NamedTuple):
+    """One path the user wrote in the (defaults-filled) config, as a method's record lists
+    it (:attr:`neurender.method.Method.user_paths`).
 
+    ``key``: spelled as in messages, e.g. ``ndr.user_objects.rock``; ``path``: as written
+    (``""`` when the key is unset); ``asset``: a mesh whose material files and textures
+    are inputs too (:func:`neurender.asset_files.asset_inputs`).
+    """
 
-#: Keys whose file is a mesh that names other files (MTL, textures, glTF buffers).
-ASSET_KEYS = ("ndr.user_objects.", "simplification.user_assets.")
-
-
-def _inputs(key: str, path: str) -> list[str]:
-    """The files a user path brings into the DAG: its folder's or glob's files, and the
-    files a mesh names (:func:`neurender.asset_files.asset_inputs`)."""
-    files = [path, *map(str, files_of(path))]
-    if key.startswith(ASSET_KEYS) and file_problem(path) is None:
-        from neurender.asset_files import asset_inputs  # lazily: it may import this module
-
-        try:
-            files += asset_inputs(path)
-        except (OSError, ValueError):  # an unreadable mesh is named by the asset check
-            pass
-    return files
-
-
-def problems(config: Mapping) -> Iterator[str]:
-    """Problems every user path shares, one sentence each naming the key and the file:
-    braces Snakemake would read as a wildcard, in the path, in a file of its folder or
-    glob, or in a file a mesh names (the workflow's own paths are checked as written)."""
-    for key, path in config_paths(config):
-        if not path:
-            continue
-        files = [path] if made_by_the_workflow(path) else _inputs(key, path)
-        for file in dict.fromkeys(files):
-            problem = wildcard_problem(file)
-            if problem:
-                yield f"{key} = {path!r}: {problem}"
-                break
+    key: str
+    path: str
+    asset: bool = False

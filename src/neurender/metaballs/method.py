@@ -1,6 +1,6 @@
 """The image-space metaballs as the rest of the project sees them
-(:class:`neurender.method.Method`): their config rules, the work of each of their rules
-and their report section's files. Read at DAG time: imports nothing heavy.
+(:class:`neurender.method.Method`): their config rules, the work of each of their rules,
+their report section's files and the user's files. Read at DAG time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from neurender import checks, io
 from neurender.metaballs import GAN_VARIANTS, MIRRORINGS, VARIANTS
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.method import Method, ReportInputs, Rule, Units
-from neurender.user_paths import made_by_the_workflow
+from neurender.user_paths import UserPath, made_by_the_workflow
 
 STAGE = "metaballs"
 #: A training step with the discriminator costs this many steps without it (measured
@@ -75,6 +75,11 @@ def _test(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return (mb["examples"]["test"] + mm["demo_frames"]) * w * w / 1e6, w * w / 1e3
 
 
+def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
+    """The metaballs' user file: the scenes CSV."""
+    yield UserPath("metaballs.user_scenes", config["metaballs"]["user_scenes"])
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures (the demo's GIF last) and viewer (the demo) of the metaballs'
     report section; the user scenes' table and figure when there are any."""
@@ -109,6 +114,7 @@ METHOD = Method(
     config_sections=("metaballs", "metaballs_model"),
     problems=problems,
     report_inputs=report_inputs,
+    user_paths=user_paths,
     rules={
         "metaballs_examples": Rule(STAGE, _examples),
         "metaballs_summary": Rule(STAGE),

@@ -1,6 +1,6 @@
 """NDR as the rest of the project sees it (:class:`neurender.method.Method`): its config
-rules, the work of each of its rules and its report section's files. Read at DAG time:
-imports nothing heavy.
+rules, the work of each of its rules, its report section's files and the user's files.
+Read at DAG time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any
 from neurender import asset_files, checks, io
 from neurender.method import Method, ReportInputs, Rule, Units, unet_work
 from neurender.ndr import DIFFUSE_VARIANTS, MESH_SUFFIXES, user_probe_files
-from neurender.user_paths import file_problem, made_by_the_workflow
+from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
 STAGE = "NDR"
@@ -118,6 +118,15 @@ def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return networks * (1 + w * w * unet_work(nm["widths"]) / 1e3), w * w / 1e3
 
 
+def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
+    """NDR's user files: each object (a mesh naming its materials and textures) and the
+    folder of lat-long maps."""
+    ndr = config["ndr"]
+    for name, path in ndr["user_objects"].items():
+        yield UserPath(f"ndr.user_objects.{name}", path, asset=True)
+    yield UserPath("ndr.user_probes_dir", ndr["user_probes_dir"])
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures and viewer (the relit test sample) of NDR's report section;
     the user objects' table and figure when there are any."""
@@ -145,6 +154,7 @@ METHOD = Method(
     config_sections=("ndr", "ndr_model"),
     problems=problems,
     report_inputs=report_inputs,
+    user_paths=user_paths,
     rules={
         "ndr_data": Rule(STAGE, _data, gpu=True),
         "ndr_summary": Rule(STAGE, _summary),

@@ -1,6 +1,6 @@
 """DeepPRT as the rest of the project sees it (:class:`neurender.method.Method`): its
-config rules, the work of each of its rules and its report section's files. Read at DAG
-time: imports nothing heavy.
+config rules, the work of each of its rules, its report section's files and the user's
+files. Read at DAG time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from neurender import checks
 from neurender.lights import BUILTIN_PROBES
 from neurender.method import Method, ReportInputs, Rule, Units, unet_work
 from neurender.prt import EXPERIMENTS, OBJECTS, RESERVED, user_sequence_problems
-from neurender.user_paths import file_problem, made_by_the_workflow
+from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 
 #: The plan's stages: the ground truth (data, transfer, figures) and the learned models.
 DATA, MODELS = "DeepPRT data", "DeepPRT models"
@@ -131,6 +131,17 @@ def _momoprt(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return pixels * prt["n_bands"] ** 2 / 1e6, pixels * prt["n_bands"] ** 2 * 3 / 1e6
 
 
+def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
+    """DeepPRT's user files: each mesh and probe, each sequence's frames and test frames."""
+    prt = config["prt"]
+    for section in ("user_meshes", "user_probes"):
+        for name, path in prt[section].items():
+            yield UserPath(f"prt.{section}.{name}", path)
+    for name, entry in prt["user_sequences"].items():
+        for field in ("frames", "test_frames"):
+            yield UserPath(f"prt.user_sequences.{name}.{field}", entry[field])
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures (three per object, one per experiment) and viewers (one per
     object) of DeepPRT's report section."""
@@ -163,6 +174,7 @@ METHOD = Method(
     config_sections=("prt", "prt_model"),
     problems=problems,
     report_inputs=report_inputs,
+    user_paths=user_paths,
     rules={
         "prt_probe": Rule(DATA),
         "prt_geometry_image": Rule(DATA, _frames),

@@ -1,6 +1,6 @@
 """The appearance-driven simplification as the rest of the project sees it
-(:class:`neurender.method.Method`): its config rules, the work of each of its rules and
-its report section's files. Read at DAG time: imports nothing heavy.
+(:class:`neurender.method.Method`): its config rules, the work of each of its rules, its
+report section's files and the user's files. Read at DAG time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any
 from neurender import asset_files
 from neurender.method import Method, ReportInputs, Rule, Units
 from neurender.simplification import CASES, VARIANTS
-from neurender.user_paths import file_problem, made_by_the_workflow
+from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 
 STAGE = "simplification"
 
@@ -80,6 +80,13 @@ def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return cases * len(VARIANTS) * s["test_views"] * s["eval_spp"] * pixels / 1e6, pixels / 1e3
 
 
+def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
+    """The simplification's user files: each asset's mesh (naming its materials and
+    textures)."""
+    for name, entry in config["simplification"]["user_assets"].items():
+        yield UserPath(f"simplification.user_assets.{name}.path", entry["path"], asset=True)
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures (one of meshes per case) and viewers (one per case) of the
     simplification's report section; nothing when there is no case."""
@@ -107,6 +114,7 @@ METHOD = Method(
     config_sections=("simplification",),
     problems=problems,
     report_inputs=report_inputs,
+    user_paths=user_paths,
     rules={
         "simplification_prepare": Rule(STAGE, _prepare, gpu=True),
         "simplification_optimise": Rule(STAGE, _optimise, gpu=True),
