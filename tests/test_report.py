@@ -168,3 +168,23 @@ def test_the_report_names_the_commit_and_holds_the_provenance_collapsed(tmp_path
     assert "&#34;seed&#34;: 7" in rest or '"seed": 7' in rest
     report.build_report([], [], out)
     assert 'id="provenance"' not in out.read_text()
+
+
+def test_tables_with_one_stem_in_two_folders_each_show_their_own_rows(tmp_path):
+    # DeepPRT's experiments: results/prt/<experiment>/experiment.csv, one stem for all.
+    res = tmp_path / "results" / "prt"
+    tables = []
+    for experiment, value in (("head_linear", 0.125), ("head_excluded", 0.875)):
+        rows = {"method": "prt", "dataset": "head", "model": "DeepPRT", "split": "test"}
+        frame = pd.DataFrame([{**rows, "metric": "relative_l1", "value": value}])
+        io.write_csv(res / experiment / "experiment.csv", frame)
+        tables.append(res / experiment / "experiment.csv")
+    report.build_report(tables, [], tmp_path / "r.html")
+    html = (tmp_path / "r.html").read_text()
+    # each table's block runs from its file's name to the next heading
+    linear = html.split("head_linear/experiment.csv", 1)[1].split("<h3>", 1)[0]
+    excluded = html.split("head_excluded/experiment.csv", 1)[1].split("<h3>", 1)[0]
+    assert "<td>0.125</td>" in linear and "<td>0.875</td>" not in linear
+    assert "<td>0.875</td>" in excluded and "<td>0.125</td>" not in excluded
+    assert "<h3>head linear/experiment</h3>" in html
+    assert "<h3>head excluded/experiment</h3>" in html

@@ -72,10 +72,10 @@ class ReportInputs:
 #: The tables a method keeps beside its code (``<tables_dir>/<kind>.csv``), by kind: their
 #: columns, each a string but ``value`` (a float). ``paper_numbers``: its published
 #: numbers, each row citing its table or section (``source``); ``headlines``: its report
-#: summary's rows, which of our numbers (``table``, ``dataset``, ``model``, ``split``,
-#: ``metric``) stands beside which published one (``paper_*``, empty when the paper
-#: reports none); ``targets``: its targets' thresholds (``name``, ``value``), read by
-#: :func:`neurender.tables.threshold`.
+#: summary's rows, which of our numbers (``table``: its path under ``results/<key>/``
+#: without ``.csv``; ``dataset``, ``model``, ``split``, ``metric``) stands beside which
+#: published one (``paper_*``, empty when the paper reports none); ``targets``: its
+#: targets' thresholds (``name``, ``value``), read by :func:`neurender.tables.threshold`.
 TABLE_COLUMNS = {
     "paper_numbers": ("method", "source", "setting", "model", "metric", "value", "note"),
     "headlines": (

@@ -173,10 +173,10 @@ def _bytes(n: float) -> str:
 
 
 def deployment_summary(tables: Sequence[Path]) -> dict | None:
-    """The summary's deployment table: every network of the ``deployment.csv`` files among
-    ``tables`` (methods in report order) and the papers' network times beside it; the
-    hardware our times were measured on. ``None`` when no method has deployed anything."""
-    files = [t for t in tables if t.stem == "deployment" and _method_of(t)]
+    """The summary's deployment table: every network of the
+    ``results/<method>/deployment.csv`` files among ``tables`` (methods in report order) and
+    the papers' network times beside it; the hardware our times were measured on. ``None`` when no method has deployed anything."""
+    files = [t for t in tables if (key := _method_of(t)) and table_name(t, key) == "deployment"]
     if not files:
         return None
     ours = pd.concat([read_deployment(f) for f in files], ignore_index=True)
@@ -235,20 +235,29 @@ def _viewer(path: Path, index: int) -> dict:
     }
 
 
+def table_name(table: Path, key: str) -> str:
+    """A table's name in the section of method ``key``: its path under ``results/<key>/``
+    without ``.csv`` (``metrics``, ``head_linear/experiment``), unique where stems are not;
+    a headline row's ``table`` (:data:`neurender.method.TABLE_COLUMNS`)."""
+    parts = table.with_suffix("").parts
+    return "/".join(parts[parts.index(key) + 1 :])
+
+
 def _section(section: Method, tables: list[Path], figures: list[Path], viewers: list[dict]):
-    frames = {t.stem: io.read_csv(t) for t in tables}
+    frames = {table_name(t, section.key): io.read_csv(t) for t in tables}
     paper = section.table("paper_numbers").drop(columns="method")
     rendered = []
     for t in tables:
-        body, rows = _render_table(frames[t.stem])
+        name = table_name(t, section.key)
+        body, rows = _render_table(frames[name])
         rendered.append(
             {
-                "caption": t.stem.replace("_", " "),
+                "caption": name.replace("_", " "),
                 "path": str(t),
                 "href": Path(*t.parts[t.parts.index(section.key) :]).as_posix(),
                 "html": body,
-                "budget": training_budget(frames[t.stem]),
-                "collapsed": rows > LONG_TABLE_ROWS and t.stem != "targets",
+                "budget": training_budget(frames[name]),
+                "collapsed": rows > LONG_TABLE_ROWS and name != "targets",
             }
         )
     ran = bool(tables or figures)
