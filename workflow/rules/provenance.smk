@@ -1,6 +1,8 @@
 # What produced the results: results/provenance.json (neurender.provenance). It depends on
 # exactly what the report shows, so every invocation that recomputes a result rewrites it
-# and nothing but the report reruns because of it.
+# and nothing but the report reruns because of it. A local rule: on a cluster (SLURM) it
+# runs where the workflow runs, so the record describes the machine that ran the
+# invocation, not a compute node.
 import neurender.provenance
 
 #: When the invocation began and its --cores (written by the onstart hook of a real run
@@ -10,6 +12,10 @@ PROVENANCE_START = "results/logs/provenance/started.json"
 
 onstart:
     neurender.provenance.mark_start(PROVENANCE_START, workflow.cores)
+
+
+localrules:
+    provenance,
 
 
 rule provenance:
