@@ -68,7 +68,7 @@ def deployment_row(
     max_abs_diff: float,
     milliseconds: Mapping[str, float],
     threads: int,
-    hardware: str,
+    machine: str,
 ) -> dict:
     """One row of the table (:data:`COLUMNS`); ``onnx_bytes`` is the file's size.
 
@@ -77,6 +77,8 @@ def deployment_row(
         max_abs_diff: the export check's largest |ONNX Runtime - PyTorch|.
         milliseconds: median milliseconds of one frame by engine (the keys of
             :data:`ENGINE_COLUMNS`); an engine not timed is NaN.
+        machine: the ``hardware`` column, where the times were measured
+            (:func:`neurender.timing.hardware`).
     """
     unknown = sorted(set(milliseconds) - set(ENGINE_COLUMNS))
     if unknown:
@@ -94,7 +96,7 @@ def deployment_row(
         "max_abs_diff_vs_pytorch": float(max_abs_diff),
         **times,
         "threads": int(threads),
-        "hardware": hardware,
+        "hardware": machine,
     }
 
 

@@ -115,11 +115,11 @@ def frame_change(
     def interpolate(x):
         return _unit(np.einsum("kj,kjc->kc", bary, x[corners]))
 
-    gltf = np.stack(
+    gltf_frame = np.stack(
         [interpolate(tangents[:, :3]), interpolate(bitangents), interpolate(normals)], -1
-    )
+    )  # columns: glTF's frame (T, B, N) in world space
     change = np.zeros((size, size, 3, 3))
-    change[samples.rows, samples.cols] = np.linalg.solve(gltf, mitsuba)
+    change[samples.rows, samples.cols] = np.linalg.solve(gltf_frame, mitsuba)
     covered = np.zeros((size, size), dtype=bool)
     covered[samples.rows, samples.cols] = True
     return dilate(change, covered)
