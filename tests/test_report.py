@@ -136,6 +136,10 @@ def test_the_summary_sets_every_deployed_network_beside_the_papers_times(tmp_pat
     for value in ("1.5", "3", "3.25", "6.5", "12,345", "52 kB", "2e-07", "64x64"):
         assert f"<td>{value}</td>" in ours
     assert "<strong>Test CPU, 2 threads</strong>" in ours
+    # each engine's column holds its times: ONNX Runtime 1.5 ms, PyTorch twice that
+    assert ours.index("ONNX Runtime ms") < ours.index("PyTorch ms")
+    row = ours[ours.index("head diffuse") :].split("</tr>", 1)[0]
+    assert row.index("<td>1.5</td>") < row.index("<td>3</td>")
     # Beside them the published times with their hardware; no metaballs row (not deployed).
     assert papers.count("</tr>") == 1 + 2
     assert "<td>45</td>" in papers and "NVIDIA RTX 2080" in papers

@@ -35,6 +35,8 @@ ENGINE_COLUMNS = {
     "onnxruntime": "onnxruntime_ms_per_frame",
     "pytorch": "pytorch_ms_per_frame",
 }
+#: The engines' names as tables show them.
+ENGINE_NAMES = {"onnxruntime": "ONNX Runtime", "pytorch": "PyTorch"}
 COLUMNS = (
     "method",
     "network",

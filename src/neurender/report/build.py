@@ -32,7 +32,7 @@ import jinja2
 import pandas as pd
 
 from neurender import io, methods, viewer_data
-from neurender.deployment import read_deployment
+from neurender.deployment import ENGINE_COLUMNS, ENGINE_NAMES, read_deployment
 from neurender.method import Method
 from neurender.tables import TIDY_COLUMNS, lookup
 
@@ -175,7 +175,8 @@ def _bytes(n: float) -> str:
 def deployment_summary(tables: Sequence[Path]) -> dict | None:
     """The summary's deployment table: every network of the
     ``results/<method>/deployment.csv`` files among ``tables`` (methods in report order) and
-    the papers' network times beside it; the hardware our times were measured on. ``None`` when no method has deployed anything."""
+    the papers' network times beside it; the hardware our times were measured on. ``None``
+    when no method has deployed anything."""
     files = [t for t in tables if (key := _method_of(t)) and table_name(t, key) == "deployment"]
     if not files:
         return None
@@ -190,8 +191,10 @@ def deployment_summary(tables: Sequence[Path]) -> dict | None:
             "parameters": ours.parameters.map(lambda n: f"{int(n):,}"),
             "ONNX file": ours.onnx_bytes.map(_bytes),
             "max |ONNX - PyTorch|": ours.max_abs_diff_vs_pytorch.map(lambda e: f"{e:.2g}"),
-            "ONNX Runtime ms": ours.onnxruntime_ms_per_frame.map(_format_value),
-            "PyTorch ms": ours.pytorch_ms_per_frame.map(_format_value),
+            **{
+                f"{ENGINE_NAMES[engine]} ms": ours[column].map(_format_value)
+                for engine, column in ENGINE_COLUMNS.items()
+            },
         }
     )
     published = paper_numbers()
