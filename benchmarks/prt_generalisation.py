@@ -167,6 +167,11 @@ def main() -> None:
         "direction_sets": prt["direction_sets"],
         "n_bands": prt["n_bands"],
     }
+    # The variant's config keys from the same config (its dilated core uses neither widths
+    # nor blocks; they are stored with it).
+    shadowing_cfg = LocalConfig(
+        n_bands=prt["n_bands"], widths=model_cfg["widths"], blocks=model_cfg["blocks"]
+    )
     train_cfg = {**model_cfg, "seed": config["seed"], "epochs": args.epochs, "device": "cpu"}
     image = lights.procedural_probe(prt["light"], prt["probe_height"])
     light = sh.project_latlong(image, prt["n_bands"])
@@ -235,7 +240,7 @@ def main() -> None:
             local = train_local(
                 split["train"],
                 split["val"],
-                LocalConfig(n_bands=prt["n_bands"]),
+                shadowing_cfg,
                 train_cfg,
                 1,
                 str(tmp / f"{name}_local.pt"),
@@ -276,7 +281,7 @@ def main() -> None:
             "frames": prt["frames"],
             "light": prt["light"],
             "paper": {k: model_cfg[k] for k in ("widths", "blocks", "lr", "batch_size")},
-            "shadowing": vars(LocalConfig(n_bands=prt["n_bands"])),
+            "shadowing": vars(shadowing_cfg),
         },
         "seconds": {k: round(v, 1) for k, v in seconds.items()},
         "torch_threads": 1,

@@ -18,6 +18,11 @@ from neurender.prt.local_model import (
 from neurender.prt.training import train_local
 
 
+def _local(**fields):
+    """The variant with the schema's SH bands and a small U-Net, ``fields`` changed."""
+    return LocalConfig(**{"n_bands": 4, "widths": (8, 16), "blocks": 1, **fields})
+
+
 def _bumpy(n=16, seed=0, shift=(0.0, 0.0, 0.0)):
     t = np.linspace(-1.0, 1.0, n)
     yy, xx = np.meshgrid(t, t, indexing="ij")
@@ -61,7 +66,7 @@ def test_zero_network_on_a_flat_plane_returns_the_unshadowed_transfer():
     t = np.linspace(-1, 1, 16)
     yy, xx = np.meshgrid(t, t, indexing="ij")
     x = _raw(np.stack([xx, yy, np.zeros_like(xx)], -1))
-    model = ShadowingTransfer(LocalConfig()).eval()  # the head starts at zero
+    model = ShadowingTransfer(_local()).eval()  # the head starts at zero
     out = model(torch.from_numpy(x)).detach().numpy()
     want = unshadowed.diffuse(np.array([0.0, 0.0, 1.0]), 4)
     assert np.allclose(out[0].reshape(16, -1).T, want, atol=1e-6)
@@ -69,7 +74,7 @@ def test_zero_network_on_a_flat_plane_returns_the_unshadowed_transfer():
 
 @pytest.mark.parametrize("architecture", ["dilated", "unet"])
 def test_output_does_not_change_when_the_shape_is_translated(architecture):
-    cfg = LocalConfig(architecture=architecture, widths=(8, 16))
+    cfg = _local(architecture=architecture)
     model = _trained_like(cfg)
     a = model(torch.from_numpy(_raw(_bumpy()))).detach()
     b = model(torch.from_numpy(_raw(_bumpy(shift=(5.0, -3.0, 12.0))))).detach()
@@ -105,7 +110,7 @@ def test_local_mean_is_an_average_over_the_window():
     [("diffuse", "dilated"), ("glossy", "dilated"), ("diffuse", "unet")],
 )
 def test_onnx_export_equals_pytorch(tmp_path, material, architecture):
-    model = _trained_like(LocalConfig(material=material, architecture=architecture, widths=(8, 16)))
+    model = _trained_like(_local(material=material, architecture=architecture))
     x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
     export_local(model, x, tmp_path / "net.onnx")
     got = OnnxNetwork(tmp_path / "net.onnx")(x)  # a batch of 3: the batch axis is dynamic
@@ -133,7 +138,8 @@ def _split(seed, frames=4, n=16):
 def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, material):
     train, val = _split(0), _split(1)
     cfg = {"seed": 0, "epochs": 40, "batch_size": 2, "lr": 1e-2, "device": "cpu"}
-    local_cfg = LocalConfig(material=material, width=8, dilations=(1, 2), window=5)
+    cfg["lr_schedule"] = "cosine"  # a config key: the schema's default, as the stage gets it
+    local_cfg = _local(material=material, width=8, dilations=(1, 2), window=5)
     ckpt = tmp_path / "local.pt"
     model = train_local(
         train, val, local_cfg, cfg, 1, str(ckpt), str(tmp_path / "loss.csv"), light=LIGHT

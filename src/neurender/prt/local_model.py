@@ -44,17 +44,19 @@ from neurender.prt import unshadowed
 ARCHITECTURES = ("dilated", "unet")
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(kw_only=True)
 class LocalConfig:
-    """Architecture of the variant (stored in its checkpoint)."""
+    """Architecture of the variant (stored in its checkpoint). The fields without a
+    default are config keys (``prt.n_bands``, ``prt_model.widths``, ``prt_model.blocks``),
+    whose defaults live in the schema only; the others are the variant's own constants."""
 
-    n_bands: int = 4
+    n_bands: int  # SH bands of the transfer
     material: str = "diffuse"
     architecture: str = "dilated"  # one of ARCHITECTURES
     width: int = 48  # dilated: channels of every layer
     dilations: tuple[int, ...] = (1, 2, 4, 8, 1)  # dilated: one 3x3 layer each
-    widths: tuple[int, ...] = (16, 32, 64, 128, 192)  # unet: channels per level
-    blocks: int = 1  # unet: ResNet blocks per level
+    widths: tuple[int, ...]  # unet: channels per level
+    blocks: int  # unet: ResNet blocks per level
     window: int = 15  # side of the local-mean window, pixels (odd)
 
     def __post_init__(self):

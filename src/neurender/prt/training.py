@@ -137,7 +137,7 @@ def train_local(
         log_csv,
         extra_state={
             "local_config": dataclasses.asdict(local_cfg),
-            "glossy_coeffs": coeffs,
+            "glossy_coeffs": None if coeffs is None else torch.from_numpy(coeffs),
             "material": material,
             "parameters": count_parameters(model),
         },
