@@ -6,7 +6,7 @@ import pytest
 import torch
 from torch.utils.data import TensorDataset
 
-from neurender import train
+from neurender import devices, train
 
 
 def _problem():
@@ -83,10 +83,10 @@ def test_nan_loss_raises_clear_error(tmp_path):
 
 
 def test_resolve_device_and_config_errors():
-    assert train.resolve_device("auto", 2).type in ("cpu", "cuda")
+    assert devices.resolve_device("auto", 2).type in ("cpu", "cuda")
     if not torch.cuda.is_available():
         with pytest.raises(RuntimeError, match="CUDA is not available"):
-            train.resolve_device("cuda")
+            devices.resolve_device("cuda")
     with pytest.raises(KeyError, match="unknown training keys \\['epochz'\\]"):
         train.TrainConfig.from_dict({"epochz": 3})
 

@@ -35,6 +35,7 @@ import torch
 from torch.utils.data import Dataset, default_collate
 
 from neurender import io, metrics
+from neurender.devices import to_device
 
 log = logging.getLogger(__name__)
 
@@ -159,8 +160,6 @@ class TrainingLog:
         self.writer.flush()  # a live view sees every finished epoch
 
     def _write_previews(self, step: int, model: torch.nn.Module) -> dict[str, float]:
-        from neurender.train import to_device
-
         model.eval()
         with torch.no_grad(), torch.random.fork_rng(devices=[]):
             pred, ref = self.previews.images(model, to_device(self.batch, self.device))

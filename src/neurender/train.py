@@ -1,6 +1,7 @@
 """The one training loop every neurender model uses.
 
-* ``device: auto`` picks CUDA when present, else the CPU with ``threads`` torch threads.
+* ``device: auto`` picks CUDA when present, else the CPU with ``threads`` torch threads
+  (:func:`neurender.devices.resolve_device`).
 * Fixed seed: weights, shuffling (a generator seeded per epoch) and dropout are
   reproducible, including across an interruption and resume.
 * Checkpoints and resume files hold only tensors and plain types (numbers, strings,
@@ -24,7 +25,6 @@ import dataclasses
 import hashlib
 import logging
 import math
-import os
 import pickle
 import sys
 import time
@@ -38,6 +38,7 @@ from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
 from neurender import io, tensorboard_log
+from neurender.devices import resolve_device, to_device
 
 log = logging.getLogger(__name__)
 
@@ -97,39 +98,6 @@ class TrainConfig:
         return cls.from_dict(
             {**{k: v for k, v in cfg.items() if k in names}, "threads": threads, **overrides}
         )
-
-
-def resolve_device(name: str = "auto", threads: int = 1) -> torch.device:
-    """Torch device for a config value; on the CPU also sets the torch thread count, on
-    CUDA picks deterministic kernels (a fixed seed then gives the same run: cuDNN without
-    autotuning, cuBLAS with a fixed workspace; ops without a deterministic kernel warn)."""
-    if name == "auto":
-        name = "cuda" if torch.cuda.is_available() else "cpu"
-    device = torch.device(name)
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise RuntimeError(
-            f"device {name!r} requested but CUDA is not available; use device: auto or cpu"
-        )
-    if device.type == "cpu":
-        torch.set_num_threads(max(1, threads))
-    else:
-        # Read by cuBLAS when its first handle is made, i.e. after this on a fresh process.
-        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
-        torch.backends.cudnn.benchmark = False
-        torch.backends.cudnn.deterministic = True
-        torch.use_deterministic_algorithms(True, warn_only=True)
-    return device
-
-
-def to_device(batch: Any, device: torch.device) -> Any:
-    """Move tensors in a (nested) batch to ``device``."""
-    if isinstance(batch, torch.Tensor):
-        return batch.to(device, non_blocking=True)
-    if isinstance(batch, Mapping):
-        return {k: to_device(v, device) for k, v in batch.items()}
-    if isinstance(batch, list | tuple):
-        return type(batch)(to_device(v, device) for v in batch)
-    return batch
 
 
 def resume_path_for(checkpoint_path: str | Path) -> Path:

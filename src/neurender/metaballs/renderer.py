@@ -7,6 +7,7 @@ from pathlib import Path
 import torch
 
 from neurender import train
+from neurender.devices import resolve_device
 from neurender.metaball import Scene
 from neurender.metaballs.model import build_generator, network_inputs
 
@@ -24,7 +25,7 @@ class MetaballRenderer:
     def __init__(self, checkpoint: str | Path, device: str = "auto", threads: int = 1):
         state = train.load_checkpoint(checkpoint)
         extra = state["extra"]
-        self.device = train.resolve_device(device, threads)
+        self.device = resolve_device(device, threads)
         self.variant = extra["variant"]
         self.width = extra["width"]
         self.model = build_generator(self.width, extra["ngf"], self.variant)

@@ -14,8 +14,9 @@ import sys
 import pandas as pd
 import torch
 
-from neurender import io, train, viewer_data
+from neurender import io, viewer_data
 from neurender.deployment import deployment_table
+from neurender.devices import resolve_device
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.ndr import (
     KINDS,
@@ -95,7 +96,7 @@ def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 def ndr_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Score every variant (``checkpoint_<variant>``) on its test split; the per-sample
     scores, NDR's timing table, the comparison figure and the training curves."""
-    device = train.resolve_device(params["device"], threads)
+    device = resolve_device(params["device"], threads)
     checkpoints = {v: inputs[f"checkpoint_{v}"] for v in params["variants"]}
     rows, per_sample, tests = [], [], {}
     for kind in KINDS:
@@ -157,7 +158,7 @@ def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     sample = params["relight_sample"]
     shifts, degrees = relight.rotations(params["environment_height"], params["relight_turns"])
     buffers = relight.relit_buffers(mi, params, sample, shifts)
-    device = train.resolve_device(params["device"], threads)
+    device = resolve_device(params["device"], threads)
     images = relight.relight(load_model(inputs["checkpoint"], device), buffers, device)
     table = relight.relight_table(images, buffers["mask"], sample, degrees)
     io.write_csv(outputs["csv"], table)
@@ -180,7 +181,7 @@ def ndr_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     turns = min(viewer_data.TURNS, 2 * params["environment_height"])
     shifts, degrees = relight.rotations(params["environment_height"], turns)
     buffers = relight.relit_buffers(mi, params, sample, shifts)
-    device = train.resolve_device(params["device"], threads)
+    device = resolve_device(params["device"], threads)
     images = relight.relight(load_model(inputs["checkpoint"], device), buffers, device)
     viewer_data.write(
         outputs["viewer"],
@@ -208,7 +209,7 @@ def ndr_user_objects(inputs: dict, outputs: dict, params: dict, threads: int) ->
     renders = pool.render_all(
         user_objects.render_object, tasks, params["device"], workers, "ndr your objects"
     )
-    device = train.resolve_device(params["device"], threads)
+    device = resolve_device(params["device"], threads)
     labels = [(name, entry) for _, name, _, entry in tasks]
     scores = user_objects.score_objects(
         renders, labels, load_model(inputs["checkpoint"], device), params["mask_erosion"], device

@@ -18,6 +18,7 @@ import torch
 from torch import nn
 
 from neurender import train
+from neurender.devices import resolve_device
 from neurender.nn.inference import OnnxNetwork, export_onnx, prepare_for_inference
 from neurender.nn.unet import ResUNet, count_parameters
 from neurender.prt.frames import Split
@@ -132,7 +133,7 @@ class DeepPRT:
     ):
         state = train.load_checkpoint(checkpoint)
         extra = state["extra"]
-        self.device = train.resolve_device(device, threads)
+        self.device = resolve_device(device, threads)
         model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
         model.load_state_dict(state["model"])
         self.parameters = count_parameters(model)
