@@ -56,7 +56,7 @@ def test_quality_falls_along_each_knob_so_the_cheapest_can_be_picked():
 def _synthetic():
     return pd.DataFrame(
         {
-            "label": ["reference", "fast but blurry", "middle", "tie", "slow"],
+            "label": [eq.REFERENCE.label, "fast but blurry", "middle", "tie", "slow"],
             "resolution": [1.0, 0.25, 0.5, 0.5, 1.0],
             "ms_per_frame": [100.0, 5.0, 20.0, 30.0, 80.0],
             "iou_depth": [1.0, 0.80, 0.93, 0.95, 0.99],
@@ -91,3 +91,30 @@ def test_network_time_is_the_inputs_plus_the_network():
     )
     assert ms > 0
     assert calls.count("draw") == 2 * 3 and calls.count((1, 4, 8, 8)) == 2 * 3  # warm-up + 2
+
+
+def test_the_table_names_each_networks_pick_and_speedups():
+    target = {"iou_depth": 0.93, "normal_error_mean_deg": 7.8}
+    perfect = {"iou_depth": 1.0, "normal_error_mean_deg": 0.1}
+    rows = eq.table(_synthetic(), {"ours": (target, 4.0), "perfect": (perfect, 2.0)})
+    value = rows.set_index(["model", "setting", "metric"])["value"]
+    assert value["ours", "middle", "equal_quality_speedup"] == pytest.approx(5.0)
+    assert value["ours", "middle", "speedup_vs_reference_marcher"] == pytest.approx(25.0)
+    assert value["ours", "middle", "equal_quality_marcher_ms"] == 20.0
+    assert math.isnan(value["perfect", "none", "equal_quality_speedup"])
+    assert value[eq.RAY_MARCHER, "tie", "ms_per_frame"] == 30.0
+    assert len(rows[rows.model == eq.RAY_MARCHER]) == 5 * 3
+
+
+def test_network_targets_average_the_first_examples_only():
+    frame = pd.DataFrame(
+        {
+            "example": [0, 0, 1, 1, 2, 0, 1],
+            "model": ["ours"] * 5 + ["other"] * 2,
+            "metric": ["iou_depth", "normal_error_mean_deg"] * 2 + ["iou_depth"] * 3,
+            "value": [0.9, 8.0, 0.7, 6.0, 0.0, 0.5, 0.6],
+        }
+    )
+    targets = eq.network_targets(frame, [0, 1])
+    assert targets["ours"] == pytest.approx({"iou_depth": 0.8, "normal_error_mean_deg": 7.0})
+    assert targets["other"] == pytest.approx({"iou_depth": 0.55})

@@ -23,14 +23,20 @@ from collections.abc import Callable, Iterable, Sequence
 
 import pandas as pd
 import torch
+from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from neurender.metaball import BISECTIONS, MIN_STEP, Scene
 from neurender.metaballs import evaluate, raymarch
+from neurender.metaballs.evaluate import TEST_DATASET
 from neurender.plots import plt, save_figure
+from neurender.tables import tidy_rows
 from neurender.timing import timed
 
 #: The two metrics of equal quality and whether higher is better.
 QUALITY = {"iou_depth": True, "normal_error_mean_deg": False}
+#: The ``model`` and ``split`` of the sweep's rows in :func:`table`.
+RAY_MARCHER = "ray marcher"
+SPLIT = "equal quality"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,6 +150,41 @@ def equal_quality_speedup(
     return math.nan if best is None else float(best["ms_per_frame"]) / network_ms
 
 
+def network_targets(frame: pd.DataFrame, examples: Sequence[int]) -> dict[str, dict[str, float]]:
+    """Per model its :data:`QUALITY` means over ``examples`` in the evaluation's tidy
+    per-example rows (``metrics_examples.csv``: ``example, model, metric, value``)."""
+    part = frame[frame["example"].isin(examples) & frame["metric"].isin(list(QUALITY))]
+    means = part.groupby(["model", "metric"], sort=False)["value"].mean()
+    return {model: means[model].to_dict() for model in part["model"].unique()}
+
+
+def table(
+    scores: pd.DataFrame, networks: dict[str, tuple[dict[str, float], float]]
+) -> pd.DataFrame:
+    """Tidy rows: per setting of :func:`score_settings` (model :data:`RAY_MARCHER`, key
+    ``setting``) its ``ms_per_frame`` and quality; per network (``networks``: name to its
+    quality and ms per frame) the same, the speed-up over the reference marcher and
+    ``equal_quality_speedup`` (NaN where no setting reaches it), and the picked setting's
+    ``equal_quality_marcher_ms`` (key ``setting`` its label, ``none`` where none)."""
+    rows = []
+    for r in scores.itertuples():
+        values = {"ms_per_frame": r.ms_per_frame, **{m: getattr(r, m) for m in QUALITY}}
+        rows += tidy_rows("metaballs", TEST_DATASET, RAY_MARCHER, SPLIT, values, setting=r.label)
+    reference_ms = float(scores.loc[scores["label"] == REFERENCE.label, "ms_per_frame"].iloc[0])
+    for name, (means, ms) in networks.items():
+        best = cheapest(scores, means)
+        values = {
+            "ms_per_frame": ms,
+            **{m: means[m] for m in QUALITY},
+            "speedup_vs_reference_marcher": reference_ms / ms,
+            "equal_quality_speedup": equal_quality_speedup(scores, means, ms),
+            "equal_quality_marcher_ms": math.nan if best is None else best["ms_per_frame"],
+        }
+        setting = "none" if best is None else best["label"]
+        rows += tidy_rows("metaballs", TEST_DATASET, name, SPLIT, values, setting=setting)
+    return pd.DataFrame(rows)
+
+
 def quality_figure(
     scores: pd.DataFrame,
     networks: dict[str, tuple[dict[str, float], float]],
@@ -176,6 +217,8 @@ def quality_figure(
                     zorder=3,
                 )
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("ms per frame")
         ax.set_ylabel(f"{metric} ({'higher' if higher else 'lower'} is better)")
         ax.grid(alpha=0.3)
