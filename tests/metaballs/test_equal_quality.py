@@ -118,3 +118,58 @@ def test_network_targets_average_the_first_examples_only():
     targets = eq.network_targets(frame, [0, 1])
     assert targets["ours"] == pytest.approx({"iou_depth": 0.8, "normal_error_mean_deg": 7.0})
     assert targets["other"] == pytest.approx({"iou_depth": 0.55})
+
+
+def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path):
+    from neurender import io
+    from neurender.metaballs import GAN_VARIANTS, VARIANTS, jobs
+
+    files = {}
+    for split, count in (("train", 2), ("val", 1), ("test", 2)):
+        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2]}
+        outputs = {
+            "examples": str(tmp_path / split),
+            "manifest": str(tmp_path / f"{split}_manifest.csv"),
+            "balls": str(tmp_path / f"{split}_balls.csv"),
+        }
+        jobs.metaballs_examples({}, outputs, params | {"split": split, "examples": count}, 1)
+        files |= {f"{split}_dir": outputs["examples"]}
+        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
+    checkpoints = []
+    for variant in VARIANTS:
+        params = {"seed": 1, "device": "cpu", "width": 32, "variant": variant, "ngf": 4}
+        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
+        params |= {"lr_schedule": "constant", "ndf": 4}
+        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
+        checkpoints.append(str(tmp_path / f"{variant}.pt"))
+        outputs = {"checkpoint": checkpoints[-1], "loss": str(tmp_path / f"{variant}.csv")}
+        jobs.metaballs_train(files, outputs, params, 1)
+    test = {k: files[f"test_{k}"] for k in ("dir", "manifest", "balls")}
+    inputs = {f"test_{k}": v for k, v in test.items()} | {"checkpoints": checkpoints}
+    evaluated = {
+        name: str(tmp_path / f"{name}.{ext}")
+        for name, ext in (("metrics", "csv"), ("examples", "csv"), ("by_scene", "csv"))
+    } | {"figure": str(tmp_path / "c.png"), "scene_figure": str(tmp_path / "s.png")}
+    jobs.metaballs_evaluate(inputs, evaluated, {"width": 32, "device": "cpu"}, 1)
+    outputs = {"table": str(tmp_path / "eq.csv"), "figure": str(tmp_path / "eq.png")}
+    params = {"equal_quality_examples": 1, "width": 32, "device": "cpu"}
+    jobs.metaballs_equal_quality(inputs | {"examples": evaluated["examples"]}, outputs, params, 1)
+
+    table = io.read_csv(outputs["table"])
+    marchers = table[table.model == eq.RAY_MARCHER]
+    assert set(marchers.setting) == {m.label for m in eq.sweep()}
+    reference = marchers[marchers.setting == eq.REFERENCE.label].set_index("metric")["value"]
+    assert reference["iou_depth"] > 0.99  # the targets' own marcher, through 8 bits
+    per_example = io.read_csv(evaluated["examples"])
+    first = per_example[per_example.example == per_example.example.min()]
+    for variant in VARIANTS:
+        rows = table[table.model == variant].set_index("metric")["value"]
+        expected = first[first.model == variant].set_index("metric")["value"]
+        for metric in eq.QUALITY:
+            assert rows[metric] == pytest.approx(expected[metric])
+        pick = table[table.model == variant].setting.iloc[0]
+        if pick != "none":
+            ms = marchers[(marchers.setting == pick) & (marchers.metric == "ms_per_frame")]
+            ratio = ms.value.iloc[0] / rows["ms_per_frame"]
+            assert rows["equal_quality_speedup"] == pytest.approx(ratio)
+    assert open(outputs["figure"], "rb").read(4) == b"\x89PNG"

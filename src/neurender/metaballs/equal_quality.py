@@ -26,7 +26,13 @@ import torch
 from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from neurender.metaball import BISECTIONS, MIN_STEP, Scene
-from neurender.metaballs import evaluate, raymarch
+from neurender.metaballs import (
+    EQUAL_QUALITY_BISECTIONS,
+    EQUAL_QUALITY_MIN_STEPS,
+    EQUAL_QUALITY_RESOLUTIONS,
+    evaluate,
+    raymarch,
+)
 from neurender.metaballs.evaluate import TEST_DATASET
 from neurender.plots import plt, save_figure
 from neurender.tables import tidy_rows
@@ -58,9 +64,9 @@ REFERENCE = March()
 
 
 def sweep(
-    min_steps: Iterable[float] = (MIN_STEP, 0.3, 1.0, 2.0),
-    bisections: Iterable[int] = (BISECTIONS, 4, 1),
-    resolutions: Iterable[float] = (1.0, 0.75, 0.5, 0.375, 0.25),
+    min_steps: Iterable[float] = EQUAL_QUALITY_MIN_STEPS,
+    bisections: Iterable[int] = EQUAL_QUALITY_BISECTIONS,
+    resolutions: Iterable[float] = EQUAL_QUALITY_RESOLUTIONS,
 ) -> list[March]:
     """Every combination of the given values, the reference first when it is among them."""
     settings = [March(*v) for v in itertools.product(min_steps, bisections, resolutions)]
