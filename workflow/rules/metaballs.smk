@@ -232,6 +232,7 @@ rule metaballs_targets:
     input:
         metrics="results/metaballs/metrics.csv",
         timing="results/metaballs/timing.csv",
+        equal_quality="results/metaballs/equal_quality.csv",
     output:
         targets=report(
             "results/metaballs/targets.csv",

@@ -164,7 +164,9 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
     """The stage's targets, each stated as met or missed, at image width ``width``."""
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
     timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
-    io.write_csv(outputs["targets"], summary.targets(metrics, timing, params["width"]))
+    equal = io.read_csv(inputs["equal_quality"], ["model", "setting", "metric", "value"])
+    table = summary.targets(metrics, timing, equal, params["width"])
+    io.write_csv(outputs["targets"], table)
 
 
 def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
