@@ -61,6 +61,7 @@ def main() -> None:
     parser.add_argument("--target-normal", type=float, default=7.8)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
+    state = git_state(ROOT)  # of the code measured: before any edit during the run
     cfg = {"seed": args.seed, "balls": args.balls, "radius": args.radius}
     scenes = [data.example_scene(cfg, "test", i) for i in range(args.examples)]
     examples = []
@@ -80,7 +81,6 @@ def main() -> None:
     scores = eq.score_settings(examples, args.width, eq.sweep(), repeats=args.repeats)
     best = eq.cheapest(scores, target)
     reference_ms = float(scores.loc[scores.label == eq.REFERENCE.label, "ms_per_frame"].iloc[0])
-    state = git_state(ROOT)
     scores["model"] = "ray marcher"
     scores["equal_quality_pick"] = scores.label == (best["label"] if best is not None else None)
     net_row = {"model": name, "label": "network (inputs + network)", "ms_per_frame": network_ms}
