@@ -36,8 +36,10 @@ def projected_radius(scene: Scene, width: int) -> torch.Tensor:
     return scene.radii / scene.centres[:, 2] / math.tan(math.radians(FOV_DEG)) * width / 2
 
 
-#: Columns of the narrowest block of :func:`_footprints` (rectangles up to 8 pixels wide).
+#: Columns of the narrowest block of :func:`_footprints` (rectangles up to 8 pixels wide),
+#: and the padding (pixels) below which a block joins the next wider one.
 MIN_BLOCK_COLUMNS = 8
+MERGE_PADDING = 1 << 14
 
 
 @dataclasses.dataclass
@@ -73,11 +75,22 @@ def _footprints(boxes: torch.Tensor, width: int) -> list[_Block]:
     lo = boxes[:, :2].floor().clamp(0, width).long()
     hi = (boxes[:, 2:].ceil() + 1).clamp(0, width).long()
     cols, rows = (hi - lo).clamp(min=0).unbind(1)
-    # Block k holds the balls 2^(k-1) < cols / MIN_BLOCK_COLUMNS <= 2^k (k = 0: the rest).
+    # Block k holds the balls 2^(k-1) < cols / MIN_BLOCK_COLUMNS <= 2^k (k = 0: the rest);
+    # a block padding fewer than MERGE_PADDING pixels more in the next one's width joins
+    # it (a block's fixed cost of some 30 array operations outweighs that padding).
     level = torch.log2(cols.clamp(min=1) / MIN_BLOCK_COLUMNS).ceil().clamp(min=0).long()
+    levels = level.unique().tolist()
+    rows_at = {k: int(rows[level == k].sum()) for k in levels}
+    groups, pending, pending_rows = [], [], 0
+    for k, nxt in zip(levels, [*levels[1:], None], strict=True):
+        pending, pending_rows = [*pending, k], pending_rows + rows_at[k]
+        extra = None if nxt is None else MIN_BLOCK_COLUMNS * ((1 << nxt) - (1 << k))
+        if extra is None or pending_rows * extra >= MERGE_PADDING:
+            groups.append((pending, k))
+            pending, pending_rows = [], 0
     blocks = []
-    for k in level.unique().tolist():
-        balls = torch.nonzero(level == k).squeeze(1)
+    for members, k in groups:
+        balls = torch.nonzero(torch.isin(level, torch.tensor(members, device=device))).squeeze(1)
         ball = torch.repeat_interleave(balls, rows[balls])
         start = torch.cumsum(rows[balls], 0) - rows[balls]
         local = torch.arange(len(ball), device=device) - torch.repeat_interleave(start, rows[balls])
