@@ -16,6 +16,9 @@ import dataclasses
 import torch
 
 THRESHOLD = 1.0
+#: :func:`march`'s step floor (world units) and bisections of the bracketed crossing.
+MIN_STEP = 0.02
+BISECTIONS = 24
 
 
 @dataclasses.dataclass
@@ -51,8 +54,8 @@ def march(
     scene: Scene,
     near: float,
     far: float,
-    min_step: float = 0.02,
-    bisections: int = 24,
+    min_step: float = MIN_STEP,
+    bisections: int = BISECTIONS,
 ) -> torch.Tensor:
     """Distance ``(R,)`` to the first ``F = THRESHOLD`` crossing along each ray in
     ``[near, far]`` (``inf`` if none); rays ``(R, 3)``, directions of unit length."""

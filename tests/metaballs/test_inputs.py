@@ -116,3 +116,106 @@ def test_rasterised_spheres_equal_every_ray_against_every_sphere():
     assert torch.equal(g.mask, hit) and hit.any() and (~hit).any()
     torch.testing.assert_close(g.depth[0][hit], depth)
     torch.testing.assert_close(g.normal[:, hit].T, normal)
+
+
+# The first, pair-list implementation of the circles and impostors (one gather per pair and
+# the ray-centre products from one matrix product), kept as the reference of the blocked one.
+def _reference_pairs(boxes, width):
+    lo = boxes[:, :2].floor().clamp(0, width).long()
+    hi = (boxes[:, 2:].ceil() + 1).clamp(0, width).long()
+    size = (hi - lo).clamp(min=0)
+    counts = size[:, 0] * size[:, 1]
+    ball = torch.repeat_interleave(torch.arange(len(boxes)), counts)
+    local = torch.arange(int(counts.sum())) - (torch.cumsum(counts, 0) - counts)[ball]
+    cols = size[ball, 0]
+    return ball, (lo[ball, 1] + local // cols) * width + lo[ball, 0] + local % cols
+
+
+def _reference_nearest(pixel, key, width):
+    nearest = torch.full((width * width,), torch.inf, dtype=key.dtype)
+    nearest = nearest.scatter_reduce(0, pixel, key, "amin")
+    tied = torch.isfinite(key) & (key == nearest[pixel])
+    pair = torch.arange(len(key))
+    first = torch.full((width * width,), len(key), dtype=pair.dtype)
+    first = first.scatter_reduce(0, pixel[tied], pair[tied], "amin")
+    return nearest, tied & (first[pixel] == pair)
+
+
+def _reference_circles(scene, width):
+    centre = scenes.project(scene.centres, width)
+    radius = inputs.projected_radius(scene, width)
+    depth = scenes.normalised_depth(scene.centres.norm(dim=1))
+    boxes = torch.cat([centre - radius[:, None], centre + radius[:, None]], 1)
+    ball, pixel = _reference_pairs(boxes, width)
+    dist = torch.hypot(
+        (pixel % width).to(scene.centres.dtype) + 0.5 - centre[ball, 0],
+        (pixel // width).to(scene.centres.dtype) + 0.5 - centre[ball, 1],
+    )
+    ring = (dist > 0.9 * radius[ball]) & (dist < radius[ball])
+    nearest, won = _reference_nearest(pixel, torch.where(ring, depth[ball], torch.inf), width)
+    image = torch.zeros(4, width * width, dtype=scene.centres.dtype)
+    image[:3, pixel[won]] = scene.colours[ball[won]].T
+    image[3] = torch.where(torch.isfinite(nearest), nearest, 1.0)
+    return image.reshape(4, width, width)
+
+
+def _reference_spheres(scene, width, matmul=True):
+    """``matmul=False``: ray . centre multiplied and added in axis order instead."""
+    ball, pixel = _reference_pairs(inputs._sphere_boxes(scene.centres, scene.radii, width), width)
+    rays = scenes.pixel_rays(width, scene.centres.dtype).reshape(-1, 3)
+    if matmul:
+        b = (rays @ scene.centres.T).reshape(-1)[pixel * len(scene) + ball]
+    else:
+        r, c = rays[pixel], scene.centres[ball]
+        b = r[:, 0] * c[:, 0] + r[:, 1] * c[:, 1] + r[:, 2] * c[:, 2]
+    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())[ball]
+    t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), torch.inf)
+    dist, won = _reference_nearest(pixel, torch.where(t > 0, t, torch.inf), width)
+    hit, ball = pixel[won], ball[won]
+    colour = torch.zeros(3, width * width, dtype=scene.centres.dtype)
+    normal = torch.zeros_like(colour)
+    colour[:, hit] = scene.colours[ball].T
+    points = rays[hit] * dist[hit, None]
+    normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
+    return gbuffers.from_hits(dist, colour, normal, width)
+
+
+def _reference_examples():
+    """Busy and sparse scenes, big balls over the image edges, tied twins; both dtypes."""
+    gen = torch.Generator().manual_seed(11)
+    cases = [(145, (0.6, 1.6), 128), (20, (0.6, 1.6), 64), (30, (1.0, 3.0), 48), (3, (1, 2), 32)]
+    out = [(scenes.sample_scene(n, radius, gen), width) for n, radius, width in cases]
+    twins = scenes.sample_scene(6, (1.0, 2.0), gen)
+    twins = Scene(  # each ball twice, in another colour: every pixel ties
+        torch.cat([twins.centres, twins.centres]),
+        torch.cat([twins.radii, twins.radii]),
+        torch.cat([twins.colours, 1 - twins.colours]),
+    )
+    return [*out, (twins, 40)]
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_blocked_circles_equal_the_first_implementation_bitwise(dtype):
+    for scene, width in _reference_examples():
+        scene = scene.to(dtype)
+        torch.testing.assert_close(
+            inputs.draw_inputs(scene, width), _reference_circles(scene, width), atol=0, rtol=0
+        )
+
+
+def test_blocked_impostors_equal_the_first_implementation():
+    # float64: bitwise. float32: the same hits and winning balls, and bitwise once
+    # ray . centre is rounded alike (the first version took it from a BLAS product, whose
+    # float32 rounding depends on the kernel; the square root of b^2 - |c|^2 + r^2
+    # amplifies that at the rim).
+    for scene, width in _reference_examples():
+        s = Scene(scene.centres, inputs.inflated_radii(scene), scene.colours)
+        new, ref = inputs.draw_spheres(s, width), _reference_spheres(s, width)
+        torch.testing.assert_close(new.stack(), ref.stack(), atol=0, rtol=0)
+        assert torch.equal(new.mask, ref.mask)
+        s = s.to(torch.float32)
+        new, ref = inputs.draw_spheres(s, width), _reference_spheres(s, width)
+        assert torch.equal(new.mask, ref.mask) and new.mask.any()
+        assert torch.equal(new.colour, ref.colour)  # the same ball won every pixel
+        same_rounding = _reference_spheres(s, width, matmul=False)
+        torch.testing.assert_close(new.stack(), same_rounding.stack(), atol=0, rtol=0)

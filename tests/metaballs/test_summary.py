@@ -24,21 +24,36 @@ def test_targets_state_each_check_as_met_or_missed():
         ]
     )
     timing = _metrics([("good", "speedup_at_145_balls", 50.0), ("good", "ms_per_frame", 1.0)])
-    table = summary.targets(metrics, timing, width=128)
+    equal = pd.DataFrame(
+        [
+            ("good", "step 1, 4 bisections, 0.5 width", "equal_quality_speedup", 6.0),
+            ("good", "step 1, 4 bisections, 0.5 width", "ms_per_frame", 1.0),
+            ("bad", "none", "equal_quality_speedup", float("nan")),
+        ],
+        columns=["model", "setting", "metric", "value"],
+    )
+    table = summary.targets(metrics, timing, equal, width=128)
     assert list(table.columns) == list(TARGET_COLUMNS)
     assert set(table.subject) == {"good", "bad"}  # baselines are not checked
     assert not table.check.str.contains("epochs").any()
     assert table[table.subject == "good"].met.all()
     assert not table[table.subject == "bad"].met.any()
-    speed_row = table[table.check.str.contains("faster")]
+    speed_row = table[table.check.str.contains("faster than ray marching")]
     assert speed_row.measured.tolist() == [50.0]
+    equal_rows = table[table.check.str.contains("cheapest ray marcher")].set_index("subject")
+    assert equal_rows.loc["good", "measured"] == 6.0 and equal_rows.loc["good", "met"]
+    assert "step 1, 4 bisections, 0.5 width" in equal_rows.loc["good", "check"]
+    assert (
+        not equal_rows.loc["bad", "met"] and "none of the sweep" in equal_rows.loc["bad", "check"]
+    )
 
 
 def test_paper_scale_targets_are_stricter():
     metrics = _metrics([("net", "iou_depth", 0.92), ("net", "normal_error_mean_deg", 10.0)])
     timing = _metrics([])
-    default = summary.targets(metrics, timing, width=128)
-    paper = summary.targets(metrics, timing, width=summary.PAPER_SCALE_WIDTH)
+    equal = pd.DataFrame(columns=["model", "setting", "metric", "value"])
+    default = summary.targets(metrics, timing, equal, width=128)
+    paper = summary.targets(metrics, timing, equal, width=summary.PAPER_SCALE_WIDTH)
     checks = ["silhouette IoU", "mean normal error"]
     for check in checks:
         assert default[default.check.str.startswith(check)].met.all()

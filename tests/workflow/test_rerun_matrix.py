@@ -56,6 +56,7 @@ READERS: dict[str, set[str]] = {
     },
     "device": {
         "metaballs_demo",
+        "metaballs_equal_quality",
         "metaballs_evaluate",
         "metaballs_train",
         "metaballs_user_scenes",
@@ -198,6 +199,7 @@ READERS: dict[str, set[str]] = {
     "ndr_model.relight_turns": {"ndr_relight"},
     "metaballs.width": {
         "metaballs_demo",
+        "metaballs_equal_quality",
         "metaballs_evaluate",
         "metaballs_examples",
         "metaballs_targets",
@@ -222,6 +224,7 @@ READERS: dict[str, set[str]] = {
     "metaballs_model.l1_weight": {"metaballs_train"},
     "metaballs_model.threads": set(),
     "metaballs_model.demo_frames": {"metaballs_demo", "metaballs_viewer"},
+    "metaballs_model.equal_quality_examples": {"metaballs_equal_quality"},
     "metaballs_model.demo_balls": {"metaballs_demo", "metaballs_viewer"},
     "metaballs_model.timing_balls": {"metaballs_demo"},
     "simplification.cases": {"simplification_evaluate"},

@@ -125,6 +125,39 @@ rule metaballs_evaluate:
         "../scripts/metaballs_evaluate.py"
 
 
+rule metaballs_equal_quality:
+    input:
+        test_dir="results/metaballs/test",
+        test_manifest="results/metaballs/test_manifest.csv",
+        test_balls="results/metaballs/test_balls.csv",
+        examples="results/metaballs/metrics_examples.csv",
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+    output:
+        table=report(
+            "results/metaballs/equal_quality.csv",
+            category="Metaballs",
+            labels={"table": "equal quality"},
+        ),
+        figure=report(
+            "results/metaballs/figures/equal_quality.png",
+            category="Metaballs",
+            labels={"figure": "equal quality"},
+        ),
+    log:
+        "results/logs/metaballs_equal_quality/metaballs_equal_quality.log",
+    benchmark:
+        "results/benchmarks/metaballs_equal_quality/metaballs_equal_quality.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("metaballs_equal_quality"),
+    params:
+        cfg=metaballs_equal_quality_params(),
+    script:
+        "../scripts/metaballs_equal_quality.py"
+
+
 rule metaballs_demo:
     input:
         checkpoints=expand(
@@ -199,6 +232,7 @@ rule metaballs_targets:
     input:
         metrics="results/metaballs/metrics.csv",
         timing="results/metaballs/timing.csv",
+        equal_quality="results/metaballs/equal_quality.csv",
     output:
         targets=report(
             "results/metaballs/targets.csv",

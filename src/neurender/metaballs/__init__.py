@@ -3,9 +3,10 @@
 Pipeline: :mod:`scenes` (camera, random balls) -> :mod:`raymarch` (exact targets) and
 :mod:`inputs` (circles, sphere impostors) -> :mod:`ab` (AB images) -> :mod:`dataset`,
 :mod:`model`, :mod:`training` -> :mod:`renderer` (inference) -> :mod:`evaluate`,
-:mod:`user_scenes` (your CSV of balls), :mod:`demo`, :mod:`speed`, :mod:`summary`,
-:mod:`figures`. The G-buffer layout and the silhouette tests are :mod:`gbuffers`; each
-rule's job is in :mod:`jobs`.
+:mod:`user_scenes` (your CSV of balls), :mod:`demo`, :mod:`speed`, :mod:`equal_quality`
+(the cheapest ray marcher of a network's quality), :mod:`summary`, :mod:`figures`. The
+G-buffer layout and the silhouette tests are :mod:`gbuffers`; each rule's job is in
+:mod:`jobs`.
 
 This module names what the workflow's rules refer to; it imports nothing heavy, so the
 Snakefile can read it when it builds the DAG.
@@ -27,3 +28,10 @@ DEMO_VARIANTS = ("pix2pix", "sphere_residual")
 #: Copies of each training example with ``metaballs_model.flips``: as it is and mirrored in
 #: x, in y and in both (:class:`neurender.metaballs.dataset.ABDataset`).
 MIRRORINGS = 4
+
+#: The equal-quality sweep's ray marchers (:func:`neurender.metaballs.equal_quality.sweep`):
+#: every step floor (world units; the first, the reference's) x bisections (the first, the
+#: reference's) x resolution (fraction of the width, upsampled by nearest neighbour).
+EQUAL_QUALITY_MIN_STEPS = (0.02, 0.3, 1.0, 2.0)
+EQUAL_QUALITY_BISECTIONS = (24, 4, 1)
+EQUAL_QUALITY_RESOLUTIONS = (1.0, 0.75, 0.5, 0.375, 0.25)

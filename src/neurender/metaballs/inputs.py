@@ -9,11 +9,15 @@ ones. Background: RGB 0, A 1 (far).
 
 Sphere impostors: every ball ray-traced as a sphere, the nearest hit per pixel, as G-buffers
 in the layout of :mod:`neurender.metaballs.gbuffers`. Both cost one test per ball and pixel
-(a billboard per ball on a GPU), never a march through the field.
+of the ball's screen rectangle (a billboard per ball on a GPU), never a march through the
+field: the rectangles' rows go in blocks of equal padded width, so that each test is an
+operation on whole arrays, and a depth test keeps per pixel the nearest fragment (of tied
+ones, the lowest ball's).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import torch
@@ -32,39 +36,93 @@ def projected_radius(scene: Scene, width: int) -> torch.Tensor:
     return scene.radii / scene.centres[:, 2] / math.tan(math.radians(FOV_DEG)) * width / 2
 
 
-def _footprint_pairs(boxes: torch.Tensor, width: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """The (ball, pixel) pairs of each ball's screen rectangle, as a rasteriser visits them.
+#: Columns of the narrowest block of :func:`_footprints` (rectangles up to 8 pixels wide),
+#: and the padding (pixels) below which a block joins the next wider one.
+MIN_BLOCK_COLUMNS = 8
+MERGE_PADDING = 1 << 14
+
+
+@dataclasses.dataclass
+class _Block:
+    """Screen rectangle rows of balls of similar width, each row padded to ``C`` columns
+    (a rasteriser's tile): ``R`` rows of ``C`` pixels, per-row values ``(R, 1)``.
+
+    Attributes:
+        ball: ``(R, 1)`` ball of each row.
+        row: ``(R, 1)`` image row.
+        column: ``(R, C)`` image column (clamped into the image on the padding).
+        valid: ``(R, C)`` false on the padding.
+        pixel: ``(R, C)`` flat pixel index ``row * W + column``.
+    """
+
+    ball: torch.Tensor
+    row: torch.Tensor
+    column: torch.Tensor
+    valid: torch.Tensor
+    pixel: torch.Tensor
+
+
+def _footprints(boxes: torch.Tensor, width: int) -> list[_Block]:
+    """Every pixel whose centre can lie inside each ball's screen rectangle (a conservative
+    superset), in blocks of balls whose rectangles are at most ``C`` pixels wide, ``C`` a
+    power of two: every per-pixel value is then an operation on a ``(R, C)`` array with
+    per-row values broadcast, not a gather per pixel.
 
     Args:
         boxes: ``(B, 4)`` continuous pixel bounds ``x0, y0, x1, y1`` (column, row).
-
-    Returns:
-        ``ball (P,)`` and flat pixel index ``row * W + column (P,)`` of every pixel whose
-        centre can lie inside (a conservative superset).
     """
+    device = boxes.device
     lo = boxes[:, :2].floor().clamp(0, width).long()
     hi = (boxes[:, 2:].ceil() + 1).clamp(0, width).long()
-    size = (hi - lo).clamp(min=0)  # (B, 2) columns, rows
-    counts = size[:, 0] * size[:, 1]
-    ball = torch.repeat_interleave(torch.arange(len(boxes), device=boxes.device), counts)
-    start = torch.cumsum(counts, 0) - counts
-    local = torch.arange(int(counts.sum()), device=boxes.device) - start[ball]
-    cols = size[ball, 0]
-    return ball, (lo[ball, 1] + local // cols) * width + lo[ball, 0] + local % cols
+    cols, rows = (hi - lo).clamp(min=0).unbind(1)
+    # Block k holds the balls 2^(k-1) < cols / MIN_BLOCK_COLUMNS <= 2^k (k = 0: the rest);
+    # a block padding fewer than MERGE_PADDING pixels more in the next one's width joins
+    # it (a block's fixed cost of some 30 array operations outweighs that padding).
+    level = torch.log2(cols.clamp(min=1) / MIN_BLOCK_COLUMNS).ceil().clamp(min=0).long()
+    levels = level.unique().tolist()
+    rows_at = {k: int(rows[level == k].sum()) for k in levels}
+    groups, pending, pending_rows = [], [], 0
+    for k, nxt in zip(levels, [*levels[1:], None], strict=True):
+        pending, pending_rows = [*pending, k], pending_rows + rows_at[k]
+        extra = None if nxt is None else MIN_BLOCK_COLUMNS * ((1 << nxt) - (1 << k))
+        if extra is None or pending_rows * extra >= MERGE_PADDING:
+            groups.append((pending, k))
+            pending, pending_rows = [], 0
+    blocks = []
+    for members, k in groups:
+        balls = torch.nonzero(torch.isin(level, torch.tensor(members, device=device))).squeeze(1)
+        ball = torch.repeat_interleave(balls, rows[balls])
+        start = torch.cumsum(rows[balls], 0) - rows[balls]
+        local = torch.arange(len(ball), device=device) - torch.repeat_interleave(start, rows[balls])
+        row = (lo[ball, 1] + local)[:, None]
+        offset = torch.arange(MIN_BLOCK_COLUMNS << k, device=device)[None, :]
+        valid = offset < cols[ball, None]
+        column = (lo[ball, 0, None] + offset).clamp(max=width - 1)
+        blocks.append(_Block(ball[:, None], row, column, valid, row * width + column))
+    return blocks
 
 
-def _nearest(ball: torch.Tensor, pixel: torch.Tensor, key: torch.Tensor, width: int):
-    """Depth test: per pixel the smallest ``key`` of its pairs (``inf`` where none) and a
-    boolean ``(P,)`` marking each pixel's one winning pair: of pairs at equal ``key``, the
-    first (pairs come ball by ball, so the lowest ball; writing several winners to one
-    pixel would leave which one lands to the thread schedule)."""
-    nearest = torch.full((width * width,), math.inf, dtype=key.dtype, device=key.device)
-    nearest = nearest.scatter_reduce(0, pixel, key, "amin")
-    tied = torch.isfinite(key) & (key == nearest[pixel])
-    pair = torch.arange(len(key), device=key.device)
-    first = torch.full((width * width,), len(key), dtype=pair.dtype, device=key.device)
-    first = first.scatter_reduce(0, pixel[tied], pair[tied], "amin")
-    return nearest, tied & (first[pixel] == pair)
+def _nearest(
+    blocks: list[_Block], keys: list[torch.Tensor], width: int, scene: Scene
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Depth test of the blocks' pixels, ``keys[i]`` ``(R, C)`` of block ``i`` (``inf``:
+    no fragment; a ball covers a pixel at most once), in the dtype of ``scene``.
+
+    Returns:
+        Per pixel ``(W * W,)`` the smallest key (``inf`` where none) and its ball: of
+        balls at equal key the lowest (``len(scene)`` where none), so that which of
+        several tied fragments lands never depends on the thread schedule.
+    """
+    count, device = len(scene), scene.centres.device
+    pixels = [b.pixel.reshape(-1) for b in blocks]
+    nearest = torch.full((width * width,), math.inf, dtype=scene.centres.dtype, device=device)
+    for pixel, key in zip(pixels, keys, strict=True):
+        nearest.scatter_reduce_(0, pixel, key.reshape(-1), "amin")
+    first = torch.full((width * width,), count, dtype=torch.long, device=device)
+    for b, pixel, key in zip(blocks, pixels, keys, strict=True):
+        tied = torch.isfinite(key) & (key == nearest.index_select(0, pixel).view_as(key))
+        first.scatter_reduce_(0, pixel, torch.where(tied, b.ball, count).reshape(-1), "amin")
+    return nearest, first
 
 
 def draw_inputs(scene: Scene, width: int) -> torch.Tensor:
@@ -77,18 +135,20 @@ def draw_inputs(scene: Scene, width: int) -> torch.Tensor:
     centre = project(scene.centres, width)  # (B, 2) column, row
     radius = projected_radius(scene, width)
     depth = normalised_depth(scene.centres.norm(dim=1))
-    ball, pixel = _footprint_pairs(
-        torch.cat([centre - radius[:, None], centre + radius[:, None]], 1), width
-    )
-    dist = torch.hypot(
-        (pixel % width).to(dtype) + 0.5 - centre[ball, 0],
-        (pixel // width).to(dtype) + 0.5 - centre[ball, 1],
-    )
-    ring = (dist > 0.9 * radius[ball]) & (dist < radius[ball])
-    nearest, won = _nearest(ball, pixel, torch.where(ring, depth[ball], math.inf), width)
+    blocks = _footprints(torch.cat([centre - radius[:, None], centre + radius[:, None]], 1), width)
+    keys = []
+    for b in blocks:
+        dist = torch.hypot(
+            b.column.to(dtype) + 0.5 - centre[b.ball, 0], b.row.to(dtype) + 0.5 - centre[b.ball, 1]
+        )
+        r = radius[b.ball]
+        ring = (dist > 0.9 * r) & (dist < r) & b.valid
+        keys.append(torch.where(ring, depth[b.ball], math.inf))
+    nearest, first = _nearest(blocks, keys, width, scene)
     image = torch.zeros(4, width * width, dtype=dtype, device=scene.centres.device)
-    image[:3, pixel[won]] = scene.colours[ball[won]].T
-    image[3] = torch.where(torch.isfinite(nearest), nearest, 1.0)
+    hit = first < len(scene)
+    image[:3, hit] = scene.colours[first[hit]].T
+    image[3] = torch.where(hit, nearest, 1.0)
     return image.reshape(4, width, width)
 
 
@@ -120,14 +180,24 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     Rasterised per ball over its screen rectangle (a sphere impostor).
     """
     dtype = scene.centres.dtype
-    ball, pixel = _footprint_pairs(_sphere_boxes(scene.centres, scene.radii, width), width)
     rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3)
-    # |c|^2 - r^2 and the ray-centre projections b per ball: the per-pair work is gathers.
-    b = (rays @ scene.centres.T).reshape(-1)[pixel * len(scene) + ball]
-    disc = b.square() - (scene.centres.square().sum(1) - scene.radii.square())[ball]
-    t = torch.where(disc >= 0, b - disc.clamp(min=0).sqrt(), math.inf)
-    dist, won = _nearest(ball, pixel, torch.where(t > 0, t, math.inf), width)
-    hit, ball = pixel[won], ball[won]
+    ray_axes = rays.T.contiguous()
+    offset = scene.centres.square().sum(1) - scene.radii.square()  # |c|^2 - r^2
+    blocks = _footprints(_sphere_boxes(scene.centres, scene.radii, width), width)
+    keys = []
+    for blk in blocks:
+        c = scene.centres[blk.ball[:, 0]]
+        pixel = blk.pixel.reshape(-1)
+        # ray . centre, multiplied and added in axis order (the first version took it from
+        # a matrix product, whose float32 rounding depends on the BLAS kernel it picks)
+        ray = [ray_axes[k].index_select(0, pixel).view_as(blk.pixel) for k in range(3)]
+        b = ray[0] * c[:, 0, None] + ray[1] * c[:, 1, None] + ray[2] * c[:, 2, None]
+        disc = b.square() - offset[blk.ball]
+        t = torch.where((disc >= 0) & blk.valid, b - disc.clamp(min=0).sqrt(), math.inf)
+        keys.append(torch.where(t > 0, t, math.inf))
+    dist, first = _nearest(blocks, keys, width, scene)
+    hit = first < len(scene)
+    ball = first[hit]
     colour = torch.zeros(3, width * width, dtype=dtype, device=scene.centres.device)
     normal = torch.zeros_like(colour)
     colour[:, hit] = scene.colours[ball].T

@@ -18,9 +18,11 @@ from neurender.deployment import deployment_table
 from neurender.metaballs import (
     DEMO_VARIANTS,
     VARIANTS,
+    ab,
     data,
     demo,
     deploy,
+    equal_quality,
     evaluate,
     figures,
     scene_file,
@@ -92,6 +94,35 @@ def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) 
     figures.comparison_figure(showcase, outputs["figure"])
 
 
+def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) against the
+    cheapest ray marcher of its quality (:mod:`neurender.metaballs.equal_quality`) on the
+    first ``equal_quality_examples`` test examples: their quality from the evaluation's
+    per-example rows (``examples``), every marcher of the sweep rendered, scored and timed
+    beside each network's frame time, all with ``threads`` torch threads (the rule asks for
+    one: on a shared 2-core machine two threads of small tensor operations measured up to
+    20 times slower); the tidy ``table`` and the ``figure``."""
+    manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
+    manifest = manifest.head(params["equal_quality_examples"])
+    scene_of = data.read_scenes(inputs["test_balls"])
+    examples = [
+        (scene_of[int(ex.example)], ab.read_ab(Path(inputs["test_dir"]) / ex.file)["target"])
+        for ex in manifest.itertuples()
+    ]
+    # Loading sets the torch threads: the marchers are timed with the networks' threads.
+    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    scores = equal_quality.score_settings(examples, params["width"], equal_quality.sweep())
+    rows = io.read_csv(inputs["examples"], ["example", "model", "metric", "value"])
+    targets = equal_quality.network_targets(rows, manifest["example"].tolist())
+    scenes = [scene for scene, _ in examples]
+    networks = {
+        name: (targets[name], equal_quality.network_ms_per_frame(r.inputs, r, scenes))
+        for name, r in renderers.items()
+    }
+    io.write_csv(outputs["table"], equal_quality.table(scores, networks))
+    equal_quality.quality_figure(scores, networks, outputs["figure"])
+
+
 def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The animated demo by each of :data:`DEMO_VARIANTS` (``checkpoints`` in that order)
     and by ray marching: frames as GIF and strip, per-frame times, temporal stability,
@@ -133,7 +164,9 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
     """The stage's targets, each stated as met or missed, at image width ``width``."""
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
     timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
-    io.write_csv(outputs["targets"], summary.targets(metrics, timing, params["width"]))
+    equal = io.read_csv(inputs["equal_quality"], ["model", "setting", "metric", "value"])
+    table = summary.targets(metrics, timing, equal, params["width"])
+    io.write_csv(outputs["targets"], table)
 
 
 def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

@@ -10,7 +10,14 @@ from importlib import resources
 from typing import Any
 
 from neurender import checks, io
-from neurender.metaballs import GAN_VARIANTS, MIRRORINGS, VARIANTS
+from neurender.metaballs import (
+    EQUAL_QUALITY_BISECTIONS,
+    EQUAL_QUALITY_MIN_STEPS,
+    EQUAL_QUALITY_RESOLUTIONS,
+    GAN_VARIANTS,
+    MIRRORINGS,
+    VARIANTS,
+)
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.method import Method, ReportInputs, Rule, Units
 from neurender.user_paths import UserPath, made_by_the_workflow
@@ -80,16 +87,28 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
     yield UserPath("metaballs.user_scenes", config["metaballs"]["user_scenes"])
 
 
+def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Ray-marched pixels of the sweep on its examples x the mean number of balls (each
+    setting marches at its resolution squared), and the networks' timed frames."""
+    mb, mm = cfg["metaballs"], cfg["metaballs_model"]
+    w = mb["width"]
+    per_resolution = len(EQUAL_QUALITY_MIN_STEPS) * len(EQUAL_QUALITY_BISECTIONS)
+    pixels = per_resolution * sum(round(r * w) ** 2 for r in EQUAL_QUALITY_RESOLUTIONS)
+    work = mm["equal_quality_examples"] * (pixels * sum(mb["balls"]) / 2 + len(VARIANTS) * w * w)
+    return work / 1e6, w * w / 1e3
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures (the demo's GIF last) and viewer (the demo) of the metaballs'
     report section; the user scenes' table and figure when there are any."""
-    tables = ("targets", "metrics", "timing", "deployment", "data")
+    tables = ("targets", "metrics", "timing", "equal_quality", "deployment", "data")
     figures = (
         "comparison",
         "accuracy_by_scene",
         "demo_network_vs_raymarch",
         "temporal_stability",
         "frame_time_vs_balls",
+        "equal_quality",
         "examples",
     )
     if config["metaballs"]["user_scenes"]:
@@ -120,6 +139,7 @@ METHOD = Method(
         "metaballs_summary": Rule(STAGE),
         "metaballs_train": Rule(STAGE, _train, gpu=True),
         "metaballs_evaluate": Rule(STAGE, _test),
+        "metaballs_equal_quality": Rule(STAGE, _equal_quality),
         "metaballs_demo": Rule(STAGE, _test),
         "metaballs_deploy": Rule(STAGE, _deploy),
         "metaballs_targets": Rule(STAGE),

@@ -12,19 +12,34 @@ from __future__ import annotations
 
 import torch
 
-from neurender.metaball import Scene, march, surface_attributes
+from neurender.metaball import BISECTIONS, MIN_STEP, Scene, march, surface_attributes
 from neurender.metaballs.gbuffers import GBuffers, from_hits
 from neurender.metaballs.scenes import MAX_DEPTH, MIN_DEPTH, pixel_rays
 
 
-def render_gbuffers(scene: Scene, width: int, chunk: int = 1 << 14) -> GBuffers:
+def render_gbuffers(
+    scene: Scene,
+    width: int,
+    chunk: int = 1 << 14,
+    min_step: float = MIN_STEP,
+    bisections: int = BISECTIONS,
+) -> GBuffers:
     """Ray-march the target G-buffers of a scene at ``width x width``, ``chunk`` rays at a
-    time, in the scene's dtype and device."""
+    time, in the scene's dtype and device; ``min_step`` and ``bisections`` as
+    :func:`neurender.metaball.march` (coarser ones make a cheaper, less exact marcher)."""
     dirs = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3)
     origins = torch.zeros_like(dirs)
     dist = torch.cat(
         [
-            march(origins[i : i + chunk], dirs[i : i + chunk], scene, MIN_DEPTH, MAX_DEPTH)
+            march(
+                origins[i : i + chunk],
+                dirs[i : i + chunk],
+                scene,
+                MIN_DEPTH,
+                MAX_DEPTH,
+                min_step,
+                bisections,
+            )
             for i in range(0, len(dirs), chunk)
         ]
     )

@@ -3,7 +3,8 @@
 Targets (thresholds from the metaballs' ``targets.csv``, beside this module): per network a
 silhouette IoU and a mean normal error (stricter at the paper's scale, ``W >= 512``),
 better than the isolated-sphere baseline on every metric, and a frame (inputs + network)
-faster than ray marching at the most balls.
+faster than ray marching at the most balls and than the cheapest ray marcher of its quality
+(:mod:`neurender.metaballs.equal_quality`).
 """
 
 from __future__ import annotations
@@ -77,7 +78,22 @@ def speed_targets(timing: pd.DataFrame) -> list[Target]:
     ]
 
 
-def targets(metrics: pd.DataFrame, timing: pd.DataFrame, width: int) -> pd.DataFrame:
-    """The stage's targets (:data:`neurender.tables.TARGET_COLUMNS`) from ``metrics.csv``
-    and ``timing.csv`` at image width ``width``."""
-    return target_table("metaballs", accuracy_targets(metrics, width) + speed_targets(timing))
+def equal_quality_targets(equal: pd.DataFrame) -> list[Target]:
+    """Per network: its frame at least the threshold's times faster than the cheapest ray
+    marcher of its quality (``equal_quality.csv``; missed where no marcher reaches it)."""
+    least = threshold("metaballs", "equal_quality_speedup")
+    out = []
+    for s in equal[equal["metric"] == "equal_quality_speedup"].itertuples():
+        marcher = f"({s.setting})" if s.setting != "none" else "(none of the sweep reaches it)"
+        check = f"frame >= {least:g}x faster than the cheapest ray marcher of its quality {marcher}"
+        out.append(Target(s.model, check, float(s.value), float(s.value) >= least))
+    return out
+
+
+def targets(
+    metrics: pd.DataFrame, timing: pd.DataFrame, equal: pd.DataFrame, width: int
+) -> pd.DataFrame:
+    """The stage's targets (:data:`neurender.tables.TARGET_COLUMNS`) from ``metrics.csv``,
+    ``timing.csv`` and ``equal_quality.csv`` at image width ``width``."""
+    checks = accuracy_targets(metrics, width) + speed_targets(timing)
+    return target_table("metaballs", checks + equal_quality_targets(equal))

@@ -45,6 +45,11 @@ def metaballs_evaluate_params():
     return section_keys("metaballs", ("width",), ("device",))
 
 
+def metaballs_equal_quality_params():
+    cfg = section_keys("metaballs_model", ("equal_quality_examples",), ("device",))
+    return {**cfg, **section_keys("metaballs", ("width",))}
+
+
 def metaballs_demo_params():
     cfg = section_keys("metaballs_model", METABALLS_DEMO_KEYS, ("seed", "device"))
     return {**cfg, **section_keys("metaballs", ("width", "radius"))}
