@@ -280,3 +280,34 @@ def test_the_old_name_patterns_catch_each_use(line):
 )
 def test_the_old_name_patterns_pass_prose_and_other_libraries(line):
     assert not _old_name_patterns("simplify").search(line)
+
+
+def test_names_yaml_does_not_read_as_text_are_refused_naming_each(tmp_path):
+    # Unquoted, YAML reads these names as None, 1, 1.5 and True: two could merge into one
+    # entry, or a name come back as a missing value in the tables.
+    cfg = yaml.safe_load(
+        "prt:\n  user_meshes:\n    null: a.ply\n    001: b.ply\n"
+        "ndr:\n  user_objects:\n    1.5: c.obj\n    yes: d.obj\n    ok: e.obj\n"
+    )
+    with pytest.raises(rules.ConfigError) as raised:
+        rules.check_names_are_text(cfg)
+    assert str(raised.value).endswith(
+        "prt.user_meshes.None (read as NoneType), prt.user_meshes.1 (read as int), "
+        "ndr.user_objects.1.5 (read as float), ndr.user_objects.True (read as bool)"
+    )
+    rules.check_names_are_text(yaml.safe_load("prt:\n  user_meshes:\n    'null': a.ply\n"))
+
+
+def test_the_dry_run_refuses_an_unquoted_name_before_the_schema(tmp_path):
+    extra = tmp_path / "extra.yaml"
+    extra.write_text("ndr:\n  user_objects:\n    001: results/examples/crate.obj\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--cores", "1"]
+        + ["--configfile", "config/smoke.yaml", str(extra)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode != 0
+    assert "names must be text" in result.stdout + result.stderr
+    assert "ndr.user_objects.1 (read as int)" in result.stdout + result.stderr

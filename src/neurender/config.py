@@ -5,7 +5,9 @@ naming the keys and values and what was expected. Each method states its own rul
 record's ``problems``, :mod:`neurender.methods`); this module asks every registered one,
 and checks every user path the records list (``user_paths``) for braces.
 :func:`check_renamed` runs before the schema, so that a key an older release named
-differently fails with its new name rather than as an unknown key.
+differently fails with its new name rather than as an unknown key, and so does
+:func:`check_names_are_text`: YAML reads an unquoted name such as ``null``, ``001`` or
+``yes`` as None, 1 or True, which the schema's name patterns do not see.
 """
 
 from __future__ import annotations
@@ -82,3 +84,29 @@ def _top_level_keys(path: str | Path) -> set[str]:
     """The top-level keys of a YAML config file (none for a file that is not a mapping)."""
     data = yaml.safe_load(Path(path).read_text())
     return set(data) if isinstance(data, dict) else set()
+
+
+def _non_text_keys(node: Any, prefix: str = "") -> Iterator[str]:
+    """Dotted paths of the mapping keys under ``node`` that are not strings."""
+    if isinstance(node, Mapping):
+        for key, value in node.items():
+            if not isinstance(key, str):
+                yield f"{prefix}{key!r} (read as {type(key).__name__})"
+            else:
+                yield from _non_text_keys(value, f"{prefix}{key}.")
+    elif isinstance(node, list):
+        for item in node:
+            yield from _non_text_keys(item, prefix)
+
+
+def check_names_are_text(config: Mapping[str, Any]) -> None:
+    """Raise :class:`ConfigError` naming every key of ``config`` that YAML did not read as
+    text (an unquoted ``null``, ``001``, ``1.0`` or ``yes`` becomes None, 1, 1.0 or True,
+    so two names may merge or a name come back as a missing value); nothing if every key
+    is a string."""
+    found = list(_non_text_keys(config))
+    if found:
+        raise ConfigError(
+            "config: names must be text; quote each as you typed it (e.g. '001: ...' -> "
+            "\"'001': ...\"): " + ", ".join(found)
+        )

@@ -55,6 +55,7 @@ def load_config(configfiles: Sequence[str]) -> dict:
     for path in configfiles:
         update_config(cfg, yaml.safe_load(Path(path).read_text()))
     config.check_renamed(cfg, [ROOT / "config/config.yaml", *configfiles])
+    config.check_names_are_text(cfg)
     validate(cfg, str(ROOT / "workflow/schemas/config.schema.yaml"))
     return cfg
 

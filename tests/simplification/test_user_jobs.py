@@ -66,17 +66,31 @@ def test_a_user_asset_runs_through_prepare_optimise_and_evaluate(bumpy_glb, stag
     assert len(export_checks) == 2 and export_checks["met"].all()
 
 
-@pytest.mark.parametrize("problem", ["nan", "budget"])
+@pytest.mark.parametrize("problem", ["nan", "budget", "texture"])
 def test_a_bad_asset_stops_prepare_before_any_output(stage_cfg, tmp_path, problem):
     box = trimesh.creation.box().subdivide()
     if problem == "nan":
         box.vertices[3] = np.nan
     box.export(tmp_path / "box.ply")
+    asset = tmp_path / "box.ply"
+    if problem == "texture":  # an OBJ whose MTL names a PNG that is not one
+        box.visual = trimesh.visual.TextureVisuals(uv=box.vertices[:, :2] % 1.0)
+        box.export(tmp_path / "box.obj")
+        (tmp_path / "box.mtl").write_text("newmtl wood\nmap_Kd wood.png\n")
+        (tmp_path / "wood.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")
+        text = (tmp_path / "box.obj").read_text().splitlines()
+        body = [line for line in text if not line.startswith(("mtllib", "usemtl"))]
+        (tmp_path / "box.obj").write_text("\n".join(["mtllib box.mtl", "usemtl wood", *body]))
+        asset = tmp_path / "box.obj"
     out = tmp_path / "out"
     out.mkdir()
     outputs = {k: str(out / v) for k, v in PREPARED.items()}
-    params = {**stage_cfg, "case": "box", "asset": entry(tmp_path / "box.ply", triangles=100)}
-    message = "not finite" if problem == "nan" else "triangles = 100 gives a budget of 100"
+    params = {**stage_cfg, "case": "box", "asset": entry(asset, triangles=100)}
+    message = {
+        "nan": "not finite",
+        "budget": "triangles = 100 gives a budget of 100",
+        "texture": "names wood.png .*which could not be read",
+    }[problem]
     with pytest.raises(AssetFileError, match=message):
         jobs.simplification_prepare({}, outputs, params, 1)
     assert list(out.iterdir()) == []

@@ -13,6 +13,7 @@ from neurender.user_paths import as_input, files_of, made_by_the_workflow
 # differently fails with its new name, unknown keys and wrong types fail here, then the
 # rules between keys (neurender/config.py), naming the keys and values.
 neurender.config.check_renamed(config, workflow.configfiles)
+neurender.config.check_names_are_text(config)
 validate(config, schema="../schemas/config.schema.yaml")
 neurender.config.check(config)
 
