@@ -21,7 +21,10 @@ and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.
   importance sampling (:func:`albedo_table`).
 
 Maps follow :mod:`neurender.sh` (lat-long ``(h, 2h, 3)``, y up, texel centres, linear
-radiance); directions are world = view space (:mod:`neurender.ndr.render`).
+radiance); directions are world = view space (:mod:`neurender.ndr.render`). Clamps take
+float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0, 1)`` with int
+bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX Runtime refuses
+the file).
 """
 
 from __future__ import annotations
@@ -142,8 +145,8 @@ def albedo_table(size: int = TABLE_SIZE, samples: int = TABLE_SAMPLES) -> torch.
 def _table_lookup(table: torch.Tensor, cos_v: torch.Tensor, roughness: torch.Tensor):
     """Bilinear read of :func:`albedo_table` at ``cos_v`` and ``roughness`` (same shape)."""
     size = table.shape[0]
-    x = cos_v.clamp(0, 1) * (size - 1)
-    y = roughness.clamp(0, 1) * (size - 1)
+    x = cos_v.clamp(0.0, 1.0) * (size - 1)
+    y = roughness.clamp(0.0, 1.0) * (size - 1)
     i0 = x.floor().clamp(max=size - 2)
     j0 = y.floor().clamp(max=size - 2)
     fx, fy = x - i0, y - j0
@@ -163,11 +166,11 @@ def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor)
     ``dirs`` ``(B, P, 3)``: bilinear between texel centres (wrapping in azimuth, clamped at
     the poles) and linear in ``roughness`` ``(B, P)`` between the levels."""
     batch, levels, h, w, _ = maps.shape
-    theta = torch.arccos(dirs[..., 1].clamp(-1, 1))
+    theta = torch.arccos(dirs[..., 1].clamp(-1.0, 1.0))
     phi = torch.atan2(dirs[..., 0], -dirs[..., 2])
     y = theta / math.pi * h - 0.5
     x = phi / (2 * math.pi) * w - 0.5
-    s = roughness.clamp(0, 1) * (levels - 1)
+    s = roughness.clamp(0.0, 1.0) * (levels - 1)
     r0, c0 = y.floor(), x.floor()
     k0 = s.floor().clamp(max=levels - 2)
     fy, fx, fk = y - r0, x - c0, s - k0
@@ -200,11 +203,11 @@ def specular_shading(
     # The lobe of a rough surface leans from the mirror direction towards the normal
     # (Lagarde and de Rousiers 2014, "dominant direction"): without this the maps are read
     # too near the horizon and S_S of roughness 0.9 comes out up to 2x too dark.
-    smooth = (1 - alpha).clamp(0, 1)
-    lean = (smooth * (smooth.sqrt() + alpha))[..., None]
+    smooth = 1 - alpha.clamp(0.0, 1.0)
+    lean = (smooth * (torch.sqrt(smooth) + alpha))[..., None]
     dominant = normals + lean * (mirror - normals)
     dominant = dominant / dominant.norm(dim=-1, keepdim=True).clamp(min=1e-12)
-    roughness = torch.sqrt(alpha.clamp(min=0))
+    roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
     radiance = _map_lookup(maps, dominant, roughness)
     albedo = _table_lookup(table.to(normals.dtype), cos_v, roughness)
     return torch.where(cos_v > 0, albedo, 0.0)[..., None] * radiance
