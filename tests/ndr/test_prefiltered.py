@@ -133,3 +133,30 @@ def test_real_maps_agree_with_the_importance_sampled_reference(map_name, roughne
         rel = float((f - r).abs().mean() / r.mean())
         assert rel < REAL_MAP_TOLERANCE[name], (name, rel)
         assert float(f.mean() / r.mean()) == pytest.approx(1.0, abs=0.1), name
+
+
+def test_the_data_stage_writes_the_prefiltered_shading_when_asked():
+    """``ndr.coarse_shading: prefiltered``: a sample's ``S_D``, ``S_S`` are the fast
+    shading of its object's pixels under its map (SH of the full map, prefiltered copies
+    of the coarse one), 0 off the object, and deterministic."""
+    from neurender.ndr import data, render
+    from tests.ndr.test_render import CFG
+
+    cfg = {**CFG, "coarse_shading": "prefiltered"}
+    obj, env, _, _ = data.sample_scene(cfg, "train", 0)
+    g = render.g_buffers(obj, render.camera(cfg["camera_distance"], cfg["fov"]), cfg["width"])
+    s_d, s_s = data.coarse_maps(cfg, g, env, "train", 0)
+    m = g["mask"] > 0
+    assert m.any() and (s_d[~m] == 0).all() and (s_s[~m] == 0).all()
+    coefficients, maps = pf.lighting(env, environments.resize_latlong(env, cfg["coarse_height"]))
+    expected = pf.prefiltered_shading(
+        torch.from_numpy(g["normal"][m]).double(),
+        torch.from_numpy(g["view_dir"][m]).double(),
+        torch.from_numpy(g["roughness"][m]).double() ** 2,
+        coefficients,
+        maps,
+    )
+    np.testing.assert_allclose(s_d[m], expected[0].numpy(), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(s_s[m], expected[1].numpy(), rtol=1e-5, atol=1e-6)
+    again = data.coarse_maps(cfg, g, env, "train", 1)  # the key seeds nothing here
+    assert np.array_equal(again[0], s_d) and np.array_equal(again[1], s_s)

@@ -18,6 +18,7 @@ CFG = {
     "edge_length": 0.3,
     "environment_height": 32,
     "coarse_height": 8,
+    "coarse_shading": "importance",
     "coarse_samples": 16,
     "bright_texels": 16,
     "spp": 8,

@@ -26,7 +26,7 @@ import pandas as pd
 import torch
 
 from neurender import io, lights
-from neurender.ndr import environments, objects, pool, render, split_kind
+from neurender.ndr import environments, objects, pool, prefiltered, render, split_kind
 from neurender.ndr.buffers import channels, lighting_rows
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import stable_seed, torch_generator
@@ -89,23 +89,35 @@ def coarse_maps(
     cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, *key
 ) -> tuple[np.ndarray, np.ndarray]:
     """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
-    (0 off the object), from the map downsampled to ``coarse_height`` rows, at most
-    ``bright_texels`` of its texels sampled explicitly (:mod:`neurender.ndr.shading`);
-    ``key`` (e.g. split and index) seeds the sample pattern."""
+    (0 off the object), by the estimator ``coarse_shading`` names, from the map
+    downsampled to ``coarse_height`` rows: ``importance`` (:mod:`neurender.ndr.shading`:
+    ``coarse_samples`` per pixel and lobe, at most ``bright_texels`` texels sampled
+    explicitly; ``key``, e.g. split and index, seeds the sample pattern) or
+    ``prefiltered`` (:mod:`neurender.ndr.prefiltered`: the SH of ``env`` itself and the
+    downsampled map's GGX-prefiltered copies; deterministic)."""
     width = cfg["width"]
     m = g["mask"].reshape(-1) > 0
-    small = torch.from_numpy(environments.resize_latlong(env, cfg["coarse_height"]))
+    small = environments.resize_latlong(env, cfg["coarse_height"])
+    normals = torch.from_numpy(g["normal"].reshape(-1, 3)[m])
+    view_dirs = torch.from_numpy(g["view_dir"].reshape(-1, 3)[m])
+    alpha = torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2)
+    if cfg["coarse_shading"] == "prefiltered":
+        coefficients, maps = prefiltered.lighting(env, small)
+        sd, ss = prefiltered.prefiltered_shading(
+            normals.double(), view_dirs.double(), alpha.double(), coefficients, maps
+        )
+    else:
+        sd, ss = coarse_shading(
+            normals,
+            view_dirs,
+            alpha,
+            torch.from_numpy(small),
+            cfg["coarse_samples"],
+            torch_generator(cfg["seed"], "ndr-coarse", *key),
+            max_bright=cfg["bright_texels"],
+        )
     s_d = np.zeros((width * width, 3), np.float32)
     s_s = np.zeros((width * width, 3), np.float32)
-    sd, ss = coarse_shading(
-        torch.from_numpy(g["normal"].reshape(-1, 3)[m]),
-        torch.from_numpy(g["view_dir"].reshape(-1, 3)[m]),
-        torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2),
-        small,
-        cfg["coarse_samples"],
-        torch_generator(cfg["seed"], "ndr-coarse", *key),
-        max_bright=cfg["bright_texels"],
-    )
     s_d[m], s_s[m] = sd.numpy(), ss.numpy()
     return s_d.reshape(width, width, 3), s_s.reshape(width, width, 3)
 
@@ -179,6 +191,7 @@ def make_sample(
         "render_seconds": render_seconds,  # Mitsuba, both maps, at `spp`, one core
         "train_spp_render_seconds": noisy_seconds if part == "test" else render_seconds,
         "coarse_seconds": coarse_seconds,
+        "coarse_shading": cfg["coarse_shading"],
     }
     return out, environments.sh_features(env), row
 

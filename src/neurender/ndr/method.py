@@ -63,6 +63,11 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             )
 
 
+def _coarse_samples(ndr: Mapping[str, Any]) -> int:
+    """The coarse shading's samples per pixel (1 for the prefiltered lookups)."""
+    return ndr["coarse_samples"] if ndr["coarse_shading"] == "importance" else 1
+
+
 def _data(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Mitsuba samples: a split's samples x pixels x (samples per pixel + coarse ones)."""
     ndr = cfg["ndr"]
@@ -73,7 +78,7 @@ def _data(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     else:
         count = (ndr["diffuse_samples"] if kind else ndr["samples"])[part]
     spp = ndr["spp"] + (ndr["reference_spp"] if part == "test" else 0)
-    return count * w * w * (spp + ndr["coarse_samples"]) / 1e6, w * w / 1e3
+    return count * w * w * (spp + _coarse_samples(ndr)) / 1e6, w * w / 1e3
 
 
 def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -100,7 +105,7 @@ def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """One test sample rendered per turn of the light."""
     ndr = cfg["ndr"]
     w = ndr["width"]
-    spp = ndr["spp"] + ndr["reference_spp"] + ndr["coarse_samples"]
+    spp = ndr["spp"] + ndr["reference_spp"] + _coarse_samples(ndr)
     return TURNS * w * w * spp / 1e6, TURNS * w * w * 40 / 1e6
 
 
