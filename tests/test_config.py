@@ -163,3 +163,11 @@ def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
     assert result.returncode != 0
     out = result.stdout + result.stderr
     assert "metaballs.balls = [6, 2]: expected [min, max] with min <= max" in out
+
+
+def test_a_coarse_map_too_large_for_the_prefilter_is_refused(smoke):
+    cfg = _with(_with(smoke, "ndr.coarse_shading", "prefiltered"), "ndr.coarse_height", 64)
+    found = rules.problems(cfg)
+    expected = "ndr.coarse_height = 64: expected at most 32 with ndr.coarse_shading = prefiltered"
+    assert any(f.startswith(expected) for f in found), found
+    assert not any("at most 32" in f for f in rules.problems(_with(smoke, "ndr.coarse_height", 64)))

@@ -16,6 +16,8 @@ from neurender.user_paths import file_problem, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
 STAGE = "NDR"
+#: The largest coarse map the prefiltered shading takes (6 levels of 2048 x 2048 weights).
+MAX_PREFILTERED_HEIGHT = 32
 
 
 def problems(config: Mapping[str, Any]) -> Iterator[str]:
@@ -32,6 +34,12 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         yield (
             f"ndr.reference_spp = {ndr['reference_spp']}: expected at least 8 x ndr.spp = "
             f"{8 * ndr['spp']} (a clean reference for the test samples)"
+        )
+    if ndr["coarse_shading"] == "prefiltered" and ndr["coarse_height"] > MAX_PREFILTERED_HEIGHT:
+        yield (
+            f"ndr.coarse_height = {ndr['coarse_height']}: expected at most "
+            f"{MAX_PREFILTERED_HEIGHT} with ndr.coarse_shading = prefiltered (its prefilter "
+            "is a dense matrix per roughness level, coarse_height^4 x 8 entries)"
         )
     if ndr["coarse_height"] > ndr["environment_height"]:
         yield (

@@ -46,6 +46,8 @@ TABLE_SIZE, TABLE_SAMPLES = 32, 4096
 #: Sub-directions per source texel (a side x side grid) in the prefilter's quadrature, so
 #: a lobe narrower than a texel still sees the texel's whole solid angle.
 SUPERSAMPLE = 4
+#: Output texels weighted at once by :func:`prefilter_matrix` (its memory, not its result).
+ROW_CHUNK = 256
 #: ``n.v`` of the table's first column (the albedo of a grazing view is 0 for rough GGX).
 MIN_COS = 1e-3
 
@@ -94,13 +96,17 @@ def prefilter_matrix(height: int, levels: int = LEVELS) -> torch.Tensor:
     p = phi[None, :, None, :].expand(height, width, side, side)
     src = torch.stack([t.sin() * p.sin(), t.cos(), -t.sin() * p.cos()], -1).reshape(-1, 3)
     d_omega = (t.sin() * (math.pi / height / side) * (2 * math.pi / width / side)).reshape(-1)
-    cos_rl = out_dirs @ src.T  # (T, T * side^2)
-    cos_rh = torch.sqrt(((1 + cos_rl) / 2).clamp(min=0))  # r.h of h = (r + l) / |r + l|
-    matrices = [torch.eye(height * width, dtype=torch.float64)]
+    texels = height * width
+    matrices = [torch.eye(texels, dtype=torch.float64)]
     for roughness in level_roughness(levels)[1:]:
         alpha = torch.tensor(roughness**2, dtype=torch.float64)
-        w = ggx_d(cos_rh, alpha) * cos_rl.clamp(min=0) * d_omega
-        w = w.reshape(height * width, height * width, side * side).sum(-1)
+        rows = []
+        for chunk in torch.split(out_dirs, ROW_CHUNK):  # bounds the (chunk, T side^2) temporaries
+            cos_rl = chunk @ src.T
+            cos_rh = torch.sqrt(((1 + cos_rl) / 2).clamp(min=0))  # r.h, h = (r + l) / |r + l|
+            w = ggx_d(cos_rh, alpha) * cos_rl.clamp(min=0) * d_omega
+            rows.append(w.reshape(len(chunk), texels, side * side).sum(-1))
+        w = torch.cat(rows)
         matrices.append(w / w.sum(1, keepdim=True))
     return torch.stack(matrices)
 
