@@ -51,9 +51,8 @@ def timing_table(network: float, train_manifest: str, test_manifest: str, where:
     and without coarse shading, beside Mitsuba's ground truth at the training and the test
     sample counts (both maps, one CPU core) as measured while making the data, and the
     coarse shading's preparation of a map's lighting (once per map) where the manifest
-    has it. Rows name
-    the coarse-shading estimator of the training data (column ``coarse_shading``, the
-    manifest's)."""
+    has it. Rows name the coarse-shading estimator of the training data (column
+    ``coarse_shading``, the manifest's)."""
     made = io.read_csv(train_manifest, TIMING_COLUMNS)
     tested = io.read_csv(test_manifest, TIMING_COLUMNS)
     coarse = float(made.coarse_seconds.median())
