@@ -86,6 +86,8 @@ def main() -> None:
     parser.add_argument("out", help="output prefix, e.g. benchmarks/results/coarse_shading")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    # The checkout's state before this run rewrites its own (tracked) results.
+    sidecar = {"command": " ".join(["python", *sys.argv]), **git_state(ROOT)}
     px = scene(args.seed)
     env = maps(args.seed)["sunlit 0"]
     small = environments.resize_latlong(env, COARSE_HEIGHT)
@@ -148,7 +150,6 @@ def main() -> None:
             )
             print(accuracy[-1], flush=True)
     io.write_csv(Path(f"{out}_accuracy.csv"), pd.DataFrame(accuracy))
-    sidecar = {"command": " ".join(["python", *sys.argv]), **git_state(ROOT)}
     Path(f"{out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
 
 

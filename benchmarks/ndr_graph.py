@@ -62,6 +62,8 @@ def main() -> None:
     parser.add_argument("out", help="output prefix, e.g. benchmarks/results/ndr_graph")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    # The checkout's state before this run rewrites its own (tracked) results.
+    sidecar = {"command": " ".join(["python", *sys.argv]), **git_state(ROOT)}
     torch.manual_seed(args.seed)
     model = NDRModel(VARIANTS["ndr"], widths=[16, 32, 64, 128], sh_hidden=64).eval()
     shipped = ShippedNDR(model, DISTANCE, FOV, WIDTH)
@@ -110,7 +112,6 @@ def main() -> None:
                 )
                 print(rows[-1], flush=True)
     io.write_csv(Path(args.out).with_suffix(".csv"), pd.DataFrame(rows))
-    sidecar = {"command": " ".join(["python", *sys.argv]), **git_state(ROOT)}
     Path(f"{args.out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
 
 
