@@ -311,3 +311,11 @@ def test_the_dry_run_refuses_an_unquoted_name_before_the_schema(tmp_path):
     assert result.returncode != 0
     assert "names must be text" in result.stdout + result.stderr
     assert "ndr.user_objects.1 (read as int)" in result.stdout + result.stderr
+
+
+def test_a_coarse_map_too_large_for_the_prefilter_is_refused(smoke):
+    cfg = _with(_with(smoke, "ndr.coarse_shading", "prefiltered"), "ndr.coarse_height", 64)
+    found = rules.problems(cfg)
+    expected = "ndr.coarse_height = 64: expected at most 32 with ndr.coarse_shading = prefiltered"
+    assert any(f.startswith(expected) for f in found), found
+    assert not any("at most 32" in f for f in rules.problems(_with(smoke, "ndr.coarse_height", 64)))

@@ -46,3 +46,26 @@ def test_missed_stage_budget():
     assert table.loc["ndr", "met"]  # 50 % below the shading input
     assert table.loc["ndr", "measured"] == 0.5
     assert not table.loc["stage", "met"]
+
+
+def test_timing_table_names_the_coarse_shading_of_the_training_data(tmp_path):
+    """The rows carry the manifest's estimator (``importance`` for a manifest from before
+    the column existed) and its lighting's once-per-map seconds where it has them; the
+    speed-up is Mitsuba's time over network + shading per image."""
+    columns = {"render_seconds": [0.3, 0.5], "train_spp_render_seconds": [0.3, 0.5]}
+    columns |= {"coarse_seconds": [0.01, 0.03], "spp": [64, 64]}
+    test = tmp_path / "test.csv"
+    pd.DataFrame({**columns, "spp": [512, 512]}).to_csv(test, index=False)
+    for shading in ("prefiltered", None):
+        train = tmp_path / f"{shading}.csv"
+        frame = pd.DataFrame(columns)
+        if shading:
+            frame["coarse_shading"] = shading
+            frame["coarse_lighting_seconds"] = [0.03, 0.05]
+        frame.to_csv(train, index=False)
+        table = summary.timing_table(0.02, str(train), str(test), "cpu, 1 thread")
+        assert set(table.coarse_shading) == {shading or "importance"}
+        speedup = table.set_index("metric").value["speedup_vs_training_spp_render"]
+        assert speedup == 0.4 / (0.02 + 0.02)
+        per_map = table.set_index("metric").value.get("coarse_lighting_seconds_per_map")
+        assert per_map == (0.04 if shading else None)

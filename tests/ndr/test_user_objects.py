@@ -201,6 +201,7 @@ def test_a_user_object_renders_as_a_test_sample(mitsuba):
         "camera_distance": 3.9,
         "fov": 30.0,
         "coarse_height": 8,
+        "coarse_shading": "importance",
         "coarse_samples": 16,
         "bright_texels": 16,
         "reference_spp": 16,

@@ -66,6 +66,7 @@ def test_the_job_relights_a_test_sample_under_every_turn(tmp_path, mitsuba):
     cfg = {"seed": 3, "device": "cpu", "width": WIDTH, "camera_distance": 3.9, "fov": 30.0}
     cfg |= {"primitives": [2, 3], "edge_length": 0.3, "environment_height": 8}
     cfg |= {"coarse_height": 8, "coarse_samples": 4, "bright_texels": 4, "spp": 4}
+    cfg |= {"coarse_shading": "importance"}
     cfg |= {"reference_spp": 8, "user_probes_dir": "", "user_probe_fraction": 0.5}
     cfg |= {"small_sun_fraction": 0.3, "mask_erosion": 1, "relight_sample": 1}
     jobs.ndr_viewer({"checkpoint": checkpoint}, {"viewer": tmp_path / "v.json"}, cfg, 1)

@@ -3,12 +3,14 @@
 This module names what the workflow's rules refer to (variants, splits); it imports
 nothing heavy, so the Snakefile can read it when it builds the DAG.
 
-Modules: ``objects``, ``environments``, ``render``, ``shading`` (one scene and its
-buffers), ``data`` and ``pool`` (a split's samples), ``buffers`` (their file format and
-loading), ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
-``relight``, ``furnace``, ``summary`` (statistics, timings, targets), ``user_objects``
-(your meshes; :mod:`neurender.asset_files` finds the files they name), ``figures`` and ``jobs`` (one
-function per rule of ``workflow/rules/ndr.smk``).
+Modules: ``objects``, ``environments``, ``render``, ``shading`` and ``prefiltered`` (one
+scene and its buffers; the coarse shading importance-sampled or prefiltered), ``data``
+and ``pool`` (a split's samples), ``buffers`` (their file format and loading),
+``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
+``deploy`` and ``shipped`` (the ONNX files: the networks; shading and network in one
+graph), ``relight``, ``furnace``, ``summary`` (statistics, timings, targets),
+``user_objects`` (your meshes; :mod:`neurender.asset_files` finds the files they name),
+``figures`` and ``jobs`` (one function per rule of ``workflow/rules/ndr.smk``).
 """
 
 from pathlib import Path

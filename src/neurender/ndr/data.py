@@ -26,7 +26,7 @@ import pandas as pd
 import torch
 
 from neurender import io, lights
-from neurender.ndr import environments, objects, pool, render, split_kind
+from neurender.ndr import environments, objects, pool, prefiltered, render, split_kind
 from neurender.ndr.buffers import channels, lighting_rows
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import stable_seed, torch_generator
@@ -85,27 +85,52 @@ def sample_scene(
     return obj, env, env_name, rng
 
 
+def coarse_lighting(cfg: dict, env: np.ndarray) -> torch.Tensor | tuple[torch.Tensor, torch.Tensor]:
+    """What the coarse shading reads of ``env`` ``(H, 2H, 3)``, made once per map: the map
+    downsampled to ``coarse_height`` rows (``coarse_shading: importance``), or the SH
+    ``(25, 3)`` of ``env`` itself and the downsampled map's GGX-prefiltered copies
+    (``prefiltered``, :func:`neurender.ndr.prefiltered.lighting`)."""
+    small = environments.resize_latlong(env, cfg["coarse_height"])
+    if cfg["coarse_shading"] == "prefiltered":
+        return prefiltered.lighting(env, small)
+    return torch.from_numpy(small)
+
+
 def coarse_maps(
-    cfg: dict, g: dict[str, np.ndarray], env: np.ndarray, *key
+    cfg: dict,
+    g: dict[str, np.ndarray],
+    env: np.ndarray,
+    *key,
+    lighting: torch.Tensor | tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
-    (0 off the object), from the map downsampled to ``coarse_height`` rows, at most
-    ``bright_texels`` of its texels sampled explicitly (:mod:`neurender.ndr.shading`);
-    ``key`` (e.g. split and index) seeds the sample pattern."""
+    (0 off the object) by the estimator ``coarse_shading`` names, from ``lighting``
+    (:func:`coarse_lighting` of ``env``, made here when not given): ``importance``
+    (:mod:`neurender.ndr.shading`: ``coarse_samples`` per pixel and lobe, at most
+    ``bright_texels`` texels sampled explicitly; ``key``, e.g. split and index, seeds the
+    sample pattern) or ``prefiltered`` (:mod:`neurender.ndr.prefiltered`; deterministic)."""
+    lighting = coarse_lighting(cfg, env) if lighting is None else lighting
     width = cfg["width"]
     m = g["mask"].reshape(-1) > 0
-    small = torch.from_numpy(environments.resize_latlong(env, cfg["coarse_height"]))
+    normals = torch.from_numpy(g["normal"].reshape(-1, 3)[m])
+    view_dirs = torch.from_numpy(g["view_dir"].reshape(-1, 3)[m])
+    alpha = torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2)
+    if cfg["coarse_shading"] == "prefiltered":
+        sd, ss = prefiltered.prefiltered_shading(
+            normals.double(), view_dirs.double(), alpha.double(), *lighting
+        )
+    else:
+        sd, ss = coarse_shading(
+            normals,
+            view_dirs,
+            alpha,
+            lighting,
+            cfg["coarse_samples"],
+            torch_generator(cfg["seed"], "ndr-coarse", *key),
+            max_bright=cfg["bright_texels"],
+        )
     s_d = np.zeros((width * width, 3), np.float32)
     s_s = np.zeros((width * width, 3), np.float32)
-    sd, ss = coarse_shading(
-        torch.from_numpy(g["normal"].reshape(-1, 3)[m]),
-        torch.from_numpy(g["view_dir"].reshape(-1, 3)[m]),
-        torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2),
-        small,
-        cfg["coarse_samples"],
-        torch_generator(cfg["seed"], "ndr-coarse", *key),
-        max_bright=cfg["bright_texels"],
-    )
     s_d[m], s_s[m] = sd.numpy(), ss.numpy()
     return s_d.reshape(width, width, 3), s_s.reshape(width, width, 3)
 
@@ -155,7 +180,10 @@ def make_sample(
     render_seconds = time.perf_counter() - tic
 
     tic = time.perf_counter()
-    s_d, s_s = coarse_maps(cfg, g, env, split, index)
+    lighting = coarse_lighting(cfg, env)
+    lighting_seconds = time.perf_counter() - tic
+    tic = time.perf_counter()
+    s_d, s_s = coarse_maps(cfg, g, env, split, index, lighting=lighting)
     coarse_seconds = time.perf_counter() - tic
     out = sample_channels(g, s_d, s_s, maps)
     noisy_seconds = math.nan
@@ -178,7 +206,9 @@ def make_sample(
         "seconds": time.perf_counter() - start,
         "render_seconds": render_seconds,  # Mitsuba, both maps, at `spp`, one core
         "train_spp_render_seconds": noisy_seconds if part == "test" else render_seconds,
-        "coarse_seconds": coarse_seconds,
+        "coarse_seconds": coarse_seconds,  # per image, the map's lighting made
+        "coarse_lighting_seconds": lighting_seconds,  # once per map (a renderer's view)
+        "coarse_shading": cfg["coarse_shading"],
     }
     return out, environments.sh_features(env), row
 

@@ -3,14 +3,17 @@
 A convex white object under a constant unit environment reflects exactly 1 diffusely
 (``I_D = 1`` everywhere: no occlusion on a convex shape, the cosine integral over pi is 1),
 and its specular map is the GGX directional albedo, which Mitsuba's ``roughconductor`` and
-our coarse-shading estimator compute independently. Each check is a
+our coarse-shading estimators compute independently (the importance-sampled one and the
+prefiltered one of :mod:`neurender.ndr.prefiltered`, whose ``S_D`` comes from the map's SH
+and ``S_S`` from its albedo table). Each check is a
 :class:`neurender.tables.Target` (subject ``Mitsuba I_D``, ``coarse S_D`` ...).
 
 The sun check: the same sphere under a sky with a half-degree sun that holds most of the
 map's power (:func:`sun_map`), where a convex object's ``I_D`` is the unoccluded shading
 the coarse ``S_D`` estimates. Its error against Mitsuba is stated for the coarse estimator
 (bright texels sampled explicitly, :mod:`neurender.ndr.shading`) beside the paper's plain
-BRDF sampling, whose shading speckles under such maps.
+BRDF sampling, whose shading speckles under such maps, and beside the prefiltered shading's
+SH irradiance, which blurs the sun over the 5 bands' resolution.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import torch
 import trimesh
 
 from neurender import sh
-from neurender.ndr import environments, render, shading
+from neurender.ndr import environments, prefiltered, render, shading
 from neurender.ndr.objects import ProceduralObject
 from neurender.ndr.shading import coarse_shading
 from neurender.rng import torch_generator
@@ -35,6 +38,9 @@ FURNACE_ROUGHNESS = 0.5
 #: ``S_D`` (exact up to float error: a constant map) and the relative difference of the two
 #: GGX albedo estimates.
 I_D_TOLERANCE, S_D_TOLERANCE, GGX_TOLERANCE = 0.01, 1e-6, 0.02
+#: The prefiltered ``S_D``'s tolerance: the SH of the 32 x 64 unit map by midpoint
+#: quadrature, whose solid angles sum to 4 pi only up to 1e-3.
+PREFILTERED_S_D_TOLERANCE = 1e-3
 #: The sun check's map: rows, the sun's direction (upper right, towards the camera) and its
 #: radiance as a multiple of the sky's; and the tolerated mean relative error of ``S_D``
 #: (what is left is the coarse map's blur of the sun over one 11-degree texel).
@@ -97,11 +103,17 @@ def sun_check(mi, width: int, spp: int, samples: int, coarse_height: int, seed: 
     for name, bright in (("bright texels", shading.MAX_BRIGHT), ("plain", 0)):
         s_d, _ = _coarse(g, inside, small, samples, seed, max_bright=bright)
         errors[name] = float(np.abs(s_d.numpy() - i_d).mean() / i_d.mean())
+    fast_d = prefiltered.diffuse_shading(
+        torch.from_numpy(g["normal"][inside]).double(),
+        torch.from_numpy(sh.project_latlong(env, environments.SH_BANDS)),
+    )
+    errors["prefiltered"] = float(np.abs(fast_d.numpy() - i_d).mean() / i_d.mean())
     share = environments.sun_share(env, coarse_height)
     return _within(
         "coarse S_D",
         f"mean |S_D - I_D| / mean I_D under a sun map ({share:.0%} of its power in one coarse "
-        f"texel; the paper's plain BRDF sampling: {errors['plain']:.3f})",
+        f"texel; the paper's plain BRDF sampling: {errors['plain']:.3f}, the prefiltered "
+        f"shading's 5-band SH: {errors['prefiltered']:.3f})",
         errors["bright texels"],
         0.0,
         SUN_TOLERANCE,
@@ -123,6 +135,13 @@ def furnace(
     s_d, s_s = _coarse(g, inside, env[::2, ::2], samples, seed)
     i_d, i_s = maps["I_D"][inside], maps["I_S"][inside]
     rel = abs(float(s_s.mean()) - float(i_s.mean())) / float(i_s.mean())
+    fast_d, fast_s = prefiltered.prefiltered_shading(
+        torch.from_numpy(g["normal"][inside]).double(),
+        torch.from_numpy(g["view_dir"][inside]).double(),
+        torch.full((int(inside.sum()),), FURNACE_ROUGHNESS**2, dtype=torch.float64),
+        *prefiltered.lighting(env, env[::2, ::2]),
+    )
+    fast_rel = abs(float(fast_s.mean()) - float(i_s.mean())) / float(i_s.mean())
     return [
         _within(
             "Mitsuba I_D",
@@ -145,6 +164,15 @@ def furnace(
             "coarse S_S",
             "relative difference of its mean from Mitsuba's I_S (GGX albedo)",
             rel,
+            0.0,
+            GGX_TOLERANCE,
+        ),
+        # The map's SH by quadrature: exact but for the midpoint rule's rounding.
+        _within("prefiltered S_D", "mean", float(fast_d.mean()), 1.0, PREFILTERED_S_D_TOLERANCE),
+        _within(
+            "prefiltered S_S",
+            "relative difference of its mean from Mitsuba's I_S (GGX albedo)",
+            fast_rel,
             0.0,
             GGX_TOLERANCE,
         ),

@@ -17,6 +17,8 @@ from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
 STAGE = "NDR"
+#: The largest coarse map the prefiltered shading takes (6 levels of 2048 x 2048 weights).
+MAX_PREFILTERED_HEIGHT = 32
 
 
 def problems(config: Mapping[str, Any]) -> Iterator[str]:
@@ -33,6 +35,12 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         yield (
             f"ndr.reference_spp = {ndr['reference_spp']}: expected at least 8 x ndr.spp = "
             f"{8 * ndr['spp']} (a clean reference for the test samples)"
+        )
+    if ndr["coarse_shading"] == "prefiltered" and ndr["coarse_height"] > MAX_PREFILTERED_HEIGHT:
+        yield (
+            f"ndr.coarse_height = {ndr['coarse_height']}: expected at most "
+            f"{MAX_PREFILTERED_HEIGHT} with ndr.coarse_shading = prefiltered (its prefilter "
+            "is a dense matrix per roughness level, coarse_height^4 x 8 entries)"
         )
     if ndr["coarse_height"] > ndr["environment_height"]:
         yield (
@@ -64,6 +72,11 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             )
 
 
+def _coarse_samples(ndr: Mapping[str, Any]) -> int:
+    """The coarse shading's samples per pixel (1 for the prefiltered lookups)."""
+    return ndr["coarse_samples"] if ndr["coarse_shading"] == "importance" else 1
+
+
 def _data(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Mitsuba samples: a split's samples x pixels x (samples per pixel + coarse ones)."""
     ndr = cfg["ndr"]
@@ -74,7 +87,7 @@ def _data(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     else:
         count = (ndr["diffuse_samples"] if kind else ndr["samples"])[part]
     spp = ndr["spp"] + (ndr["reference_spp"] if part == "test" else 0)
-    return count * w * w * (spp + ndr["coarse_samples"]) / 1e6, w * w / 1e3
+    return count * w * w * (spp + _coarse_samples(ndr)) / 1e6, w * w / 1e3
 
 
 def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -101,7 +114,7 @@ def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """One test sample rendered per turn of the light."""
     ndr = cfg["ndr"]
     w = ndr["width"]
-    spp = ndr["spp"] + ndr["reference_spp"] + ndr["coarse_samples"]
+    spp = ndr["spp"] + ndr["reference_spp"] + _coarse_samples(ndr)
     return TURNS * w * w * spp / 1e6, TURNS * w * w * 40 / 1e6
 
 

@@ -20,6 +20,8 @@ from neurender.timing import timed
 
 #: Manifest columns the timing table reads (seconds on one core, see ``data.make_sample``).
 TIMING_COLUMNS = ["render_seconds", "train_spp_render_seconds", "coarse_seconds", "spp"]
+#: Manifests written before ``ndr.coarse_shading`` existed had the importance estimator.
+DEFAULT_SHADING = "importance"
 
 
 def split_statistics(manifests: dict[str, str]) -> pd.DataFrame:
@@ -47,7 +49,10 @@ def network_seconds(
 def timing_table(network: float, train_manifest: str, test_manifest: str, where: str):
     """Seconds per image (medians): the network (``network`` s, measured ``where``) with
     and without coarse shading, beside Mitsuba's ground truth at the training and the test
-    sample counts (both maps, one CPU core) as measured while making the data."""
+    sample counts (both maps, one CPU core) as measured while making the data, and the
+    coarse shading's preparation of a map's lighting (once per map) where the manifest
+    has it. Rows name the coarse-shading estimator of the training data (column
+    ``coarse_shading``, the manifest's)."""
     made = io.read_csv(train_manifest, TIMING_COLUMNS)
     tested = io.read_csv(test_manifest, TIMING_COLUMNS)
     coarse = float(made.coarse_seconds.median())
@@ -61,7 +66,12 @@ def timing_table(network: float, train_manifest: str, test_manifest: str, where:
     values["speedup_vs_training_spp_render"] = (
         float(made.render_seconds.median()) / values["network_with_coarse_shading_seconds"]
     )
-    return pd.DataFrame(tidy_rows("ndr", "complex", "ndr", f"timing ({where})", values))
+    if "coarse_lighting_seconds" in made:  # once per map, not per image
+        values["coarse_lighting_seconds_per_map"] = float(made.coarse_lighting_seconds.median())
+    shading = made.get("coarse_shading", pd.Series([DEFAULT_SHADING])).iloc[0]
+    return pd.DataFrame(
+        tidy_rows("ndr", "complex", "ndr", f"timing ({where})", values, coarse_shading=shading)
+    )
 
 
 def stage_minutes(benchmarks: list[str], job_threads: list[int], cores: int) -> float:

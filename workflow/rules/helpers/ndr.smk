@@ -19,10 +19,14 @@ NDR_SAMPLE_KEYS = (
     "fov",
     "environment_height",
     "coarse_height",
-    "coarse_samples",
-    "bright_texels",
+    "coarse_shading",
     "spp",
 )
+#: The keys of each coarse-shading estimator (``ndr.coarse_shading``).
+NDR_SHADING_KEYS = {
+    "importance": ("coarse_samples", "bright_texels"),
+    "prefiltered": (),
+}
 NDR_KIND_KEYS = {
     "complex": ("user_probes_dir", "user_probe_fraction", "small_sun_fraction"),
     "diffuse": ("fixed_probe",),
@@ -46,8 +50,7 @@ NDR_USER_OBJECT_KEYS = (
     "fov",
     "environment_height",
     "coarse_height",
-    "coarse_samples",
-    "bright_texels",
+    "coarse_shading",
     "reference_spp",
     "user_probes_dir",
     "user_probe_fraction",
@@ -90,7 +93,7 @@ def ndr_user_objects_params():
     replayed) and the mask erosion of the scores."""
     return section_keys(
         "ndr",
-        NDR_USER_OBJECT_KEYS,
+        NDR_USER_OBJECT_KEYS + NDR_SHADING_KEYS[config["ndr"]["coarse_shading"]],
         ("seed", "device"),
         test_samples=config["ndr"]["samples"]["test"],
         mask_erosion=config["ndr_model"]["mask_erosion"],
@@ -110,6 +113,7 @@ def ndr_sample_keys(split):
     kind, part = ndr_split_kind(split)
     return (
         NDR_SAMPLE_KEYS
+        + NDR_SHADING_KEYS[config["ndr"]["coarse_shading"]]
         + NDR_KIND_KEYS[kind]
         + (NDR_TEST_KEYS if part == "test" else ())
     )

@@ -1,0 +1,119 @@
+"""The shipped NDR graph (:mod:`neurender.ndr.shipped`) timed per part by ONNX Runtime.
+
+nice -n 15 python benchmarks/ndr_graph.py benchmarks/results/ndr_graph
+
+The default config's network (variant ``ndr``, widths 16 32 64 128, SH layers 64; its
+weights at initialisation: the time does not depend on them) at 64 x 64, one random object
+of the data under a real-world-like map. Three ONNX files, each checked against PyTorch
+by :func:`neurender.nn.inference.export_onnx`: the prefiltered coarse shading alone, the
+network alone (:class:`neurender.ndr.deploy.NDRGraph`, what ``ndr_deploy`` ships today) and
+the two in one graph. Writes ``<out>.csv``: per part and thread count, the median
+milliseconds of one frame by ONNX Runtime and by PyTorch (the parts timed in turn, the
+least loaded of :data:`ROUNDS` rounds), and the check's largest
+difference; ``<out>.json``: the command, commit and hardware.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from neurender import io
+from neurender.ndr import environments, objects, render
+from neurender.ndr import prefiltered as pf
+from neurender.ndr.deploy import INPUTS as NETWORK_INPUTS
+from neurender.ndr.deploy import NDRGraph, graph_groups
+from neurender.ndr.model import NDRModel
+from neurender.ndr.shipped import INPUTS, ShadingPart, ShippedNDR, gbuffer_groups
+from neurender.ndr.variants import VARIANTS
+from neurender.nn.inference import engine_milliseconds, export_onnx
+from neurender.provenance import git_state
+from neurender.timing import hardware
+
+WIDTH, DISTANCE, FOV, ENV_HEIGHT, COARSE_HEIGHT = 64, 3.9, 30.0, 128, 16
+ROOT = Path(__file__).resolve().parents[1]
+#: Rounds of timing per thread count (the least loaded is kept).
+ROUNDS = 3
+
+
+def buffers(seed: int) -> dict[str, torch.Tensor]:
+    """One sample's G-buffers ``(1, C, W, W)`` by group, as the data stage stores them."""
+    rng = np.random.default_rng(seed)
+    obj = objects.random_object(rng, (2, 7), 0.2)
+    g = render.g_buffers(obj, render.camera(DISTANCE, FOV), WIDTH)
+    names = {"N": "normal", "R": "roughness", "D": "depth", "mask": "mask"}
+    names |= {"A_D": "albedo_diffuse", "A_S": "albedo_specular"}
+    out = {}
+    for group, key in names.items():
+        x = torch.from_numpy(np.ascontiguousarray(g[key], np.float32))
+        out[group] = (x[..., None] if x.ndim == 2 else x).permute(2, 0, 1)[None]
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", help="output prefix, e.g. benchmarks/results/ndr_graph")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    # The checkout's state before this run rewrites its own (tracked) results.
+    sidecar = {"command": " ".join(["python", *sys.argv]), **git_state(ROOT)}
+    torch.manual_seed(args.seed)
+    model = NDRModel(VARIANTS["ndr"], widths=[16, 32, 64, 128], sh_hidden=64).eval()
+    shipped = ShippedNDR(model, DISTANCE, FOV, WIDTH)
+    g = buffers(args.seed)
+    env = environments.sunlit_environment(np.random.default_rng(args.seed), ENV_HEIGHT)
+    coefficients, maps = pf.lighting(env, environments.resize_latlong(env, COARSE_HEIGHT))
+    sh, maps = coefficients.reshape(1, -1).float(), maps[None].float()
+    gbuffers = torch.cat([g[k] for k in gbuffer_groups(model)], 1)
+    inputs = (gbuffers, sh, maps)
+    with torch.inference_mode():
+        batch = shipped.batch(*inputs)
+    network_inputs = (torch.cat([batch[k] for k in graph_groups(model)], 1), batch["light"])
+    parts = {
+        "coarse shading (prefiltered)": (ShadingPart(shipped.shading), inputs, INPUTS),
+        "network": (NDRGraph(model), network_inputs, NETWORK_INPUTS),
+        "shading + network (one graph)": (shipped, inputs, INPUTS),
+    }
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        files, errors = {}, {}
+        for k, (name, (module, x, names)) in enumerate(parts.items()):
+            files[name] = Path(tmp) / f"{k}.onnx"
+            pair = tuple(torch.cat([t, t]) for t in x)  # the export needs a batch of 2
+            errors[name] = export_onnx(
+                module, pair, files[name], atol=1e-3, rtol=1e-4, input_names=names
+            )
+        for threads in (1, 2):
+            # The machine is shared: the parts are timed in turn, ROUNDS times, and each
+            # keeps its least loaded round.
+            best: dict[str, dict[str, float]] = {}
+            for _ in range(ROUNDS):
+                for name, (module, x, _) in parts.items():
+                    ms = engine_milliseconds(module, files[name], x, threads)
+                    best[name] = {e: min(t, best.get(name, ms)[e]) for e, t in ms.items()}
+            for name in parts:
+                rows.append(
+                    {
+                        "part": name,
+                        "threads": threads,
+                        "onnxruntime_ms": best[name]["onnxruntime"],
+                        "pytorch_ms": best[name]["pytorch"],
+                        "max_abs_diff_vs_pytorch": errors[name],
+                        "onnx_bytes": files[name].stat().st_size,
+                        "hardware": hardware(threads, "cpu"),
+                    }
+                )
+                print(rows[-1], flush=True)
+    io.write_csv(Path(args.out).with_suffix(".csv"), pd.DataFrame(rows))
+    Path(f"{args.out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,251 @@
+"""Coarse shading ``S_D`` and ``S_S`` as real-time renderers compute it: a few table
+lookups per pixel, in torch (vectorised, exportable to ONNX with the network).
+
+The quantities are those of :mod:`neurender.ndr.shading` (its importance-sampled estimator
+is the reference these are tested against): ``S_D = integral L(w) max(n.w, 0) / pi dw``
+and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.v) dl``.
+
+* ``S_D`` from the map's 5-band SH (the light the NDR stage already has,
+  :func:`neurender.ndr.environments.sh_features`): the irradiance is the SH convolved with
+  the clamped cosine (Ramamoorthi and Hanrahan 2001), a dot product per pixel, clamped
+  at 0 (the truncated expansion rings below a small bright emitter).
+* ``S_S`` by the split sum (Karis 2013): ``S_S ~ L_pre(r, roughness) E(n.v, roughness)``
+  with ``r`` the mirror direction leant towards the normal as the surface roughens
+  (Lagarde and de Rousiers 2014). ``L_pre`` is the map convolved with the GGX lobe under
+  Karis' assumption ``n = v = r`` (weight ``D(h) max(r.l, 0)``) at :data:`LEVELS`
+  roughnesses ``0, 1 / (LEVELS - 1), ..., 1`` (perceptual roughness, ``alpha =
+  roughness^2``), read bilinearly in the map and linearly between levels
+  (:func:`prefilter`: one fixed matrix per map size, so prefiltering a map is one product).
+  ``E`` is the GGX directional albedo; with Fresnel 1 it is the sum of Karis' scale and
+  bias of ``F0`` (``F0 = 1``), one table over ``(n.v, roughness)`` computed once by
+  importance sampling (:func:`albedo_table`).
+
+Maps follow :mod:`neurender.sh` (lat-long ``(h, 2h, 3)``, y up, texel centres, linear
+radiance); directions are world = view space (:mod:`neurender.ndr.render`). Clamps take
+float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0, 1)`` with int
+bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX Runtime refuses
+the file).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import torch
+
+from neurender import sh
+from neurender.ndr.environments import SH_BANDS
+from neurender.ndr.shading import ggx_d, smith_g1
+
+#: Prefiltered maps per lighting, at perceptual roughness ``k / (LEVELS - 1)``.
+LEVELS = 6
+#: Entries per axis of the albedo table, and importance samples per entry (a square).
+TABLE_SIZE, TABLE_SAMPLES = 32, 4096
+#: Sub-directions per source texel (a side x side grid) in the prefilter's quadrature, so
+#: a lobe narrower than a texel still sees the texel's whole solid angle.
+SUPERSAMPLE = 4
+#: Output texels weighted at once by :func:`prefilter_matrix` (its memory, not its result).
+ROW_CHUNK = 256
+#: ``n.v`` of the table's first column (the albedo of a grazing view is 0 for rough GGX).
+MIN_COS = 1e-3
+
+
+def _irradiance_scale(bands: int) -> torch.Tensor:
+    """``(bands^2,)`` factors taking a map's SH to those of ``S_D`` (irradiance / pi):
+    ``sqrt(4 pi / (2 l + 1)) z_l / pi`` with ``z_l`` the clamped cosine's zonal SH."""
+    per_band = [
+        math.sqrt(4 * math.pi / (2 * l + 1)) * sh.CLAMPED_COSINE_ZONAL[l] / math.pi
+        for l in range(bands)  # noqa: E741 - l is the band
+    ]
+    return torch.tensor([s for l, s in enumerate(per_band) for _ in range(2 * l + 1)])  # noqa: E741
+
+
+def diffuse_shading(normals: torch.Tensor, coefficients: torch.Tensor) -> torch.Tensor:
+    """``S_D`` ``(..., P, 3)`` at unit ``normals`` ``(..., P, 3)`` from the map's SH
+    ``coefficients`` ``(..., 25, 3)`` (:func:`neurender.sh.project_latlong`, 5 bands),
+    clamped at 0."""
+    bands = math.isqrt(coefficients.shape[-2])
+    scale = _irradiance_scale(bands).to(coefficients.dtype)
+    basis = sh.eval_sh(normals, bands)  # (..., P, K)
+    return (basis @ (coefficients * scale[:, None])).clamp(min=0)
+
+
+def level_roughness(levels: int = LEVELS) -> np.ndarray:
+    """The perceptual roughness ``(levels,)`` of each prefiltered map: 0 to 1, even steps."""
+    return np.linspace(0.0, 1.0, levels)
+
+
+@functools.lru_cache(maxsize=8)
+def prefilter_matrix(height: int, levels: int = LEVELS) -> torch.Tensor:
+    """``(levels, h 2h, h 2h)`` float64: row ``i`` of level ``k`` holds the weights of the
+    source texels in output texel ``i`` (same ``(h, 2h)`` map, flattened row-major).
+
+    Weight of a source direction ``l`` for the mirror direction ``r`` (output texel
+    centre): ``D(r.h, alpha) max(r.l, 0) dw`` with ``h`` the half vector of ``r`` and ``l``
+    (Karis 2013, ``n = v = r``), by midpoint quadrature over :data:`SUPERSAMPLE`^2
+    sub-directions per texel, normalised per row. Level 0 (roughness 0) is the identity."""
+    width = 2 * height
+    out_dirs = torch.from_numpy(sh.latlong_directions(height, width)[0].reshape(-1, 3))
+    side = SUPERSAMPLE
+    sub = (torch.arange(side, dtype=torch.float64) + 0.5) / side
+    theta = (torch.arange(height, dtype=torch.float64)[:, None] + sub) * math.pi / height
+    phi = (torch.arange(width, dtype=torch.float64)[:, None] + sub) * 2 * math.pi / width
+    t = theta[:, None, :, None].expand(height, width, side, side)
+    p = phi[None, :, None, :].expand(height, width, side, side)
+    src = torch.stack([t.sin() * p.sin(), t.cos(), -t.sin() * p.cos()], -1).reshape(-1, 3)
+    d_omega = (t.sin() * (math.pi / height / side) * (2 * math.pi / width / side)).reshape(-1)
+    texels = height * width
+    matrices = [torch.eye(texels, dtype=torch.float64)]
+    for roughness in level_roughness(levels)[1:]:
+        alpha = torch.tensor(roughness**2, dtype=torch.float64)
+        rows = []
+        for chunk in torch.split(out_dirs, ROW_CHUNK):  # bounds the (chunk, T side^2) temporaries
+            cos_rl = chunk @ src.T
+            cos_rh = torch.sqrt(((1 + cos_rl) / 2).clamp(min=0))  # r.h, h = (r + l) / |r + l|
+            w = ggx_d(cos_rh, alpha) * cos_rl.clamp(min=0) * d_omega
+            rows.append(w.reshape(len(chunk), texels, side * side).sum(-1))
+        w = torch.cat(rows)
+        matrices.append(w / w.sum(1, keepdim=True))
+    return torch.stack(matrices)
+
+
+def prefilter(environment: torch.Tensor, levels: int = LEVELS) -> torch.Tensor:
+    """The GGX-prefiltered maps ``(levels, h, 2h, 3)`` of a map ``(h, 2h, 3)`` (same dtype;
+    :func:`prefilter_matrix`)."""
+    h, w = environment.shape[:2]
+    m = prefilter_matrix(h, levels).to(environment.dtype)
+    return (m @ environment.reshape(h * w, 3)).reshape(levels, h, w, 3)
+
+
+@functools.lru_cache(maxsize=2)
+def albedo_table(size: int = TABLE_SIZE, samples: int = TABLE_SAMPLES) -> torch.Tensor:
+    """GGX directional albedo with Fresnel 1, ``(size, size)`` float64: entry ``[i, j]``
+    at ``n.v = max(i / (size - 1), MIN_COS)`` and perceptual roughness ``j / (size - 1)``
+    (``alpha`` its square). Importance sampling of ``D(h) (n.h)`` on a midpoint grid of
+    ``samples`` (a square; deterministic), weight ``G (v.h) / ((n.h) (n.v))``, the Smith
+    ``G`` of :func:`neurender.ndr.shading.smith_g1` (Karis 2013's table at ``F0 = 1``)."""
+    side = math.isqrt(samples)
+    if side * side != samples:
+        raise ValueError(f"albedo table samples={samples}: expected a square number")
+    grid = (torch.arange(side, dtype=torch.float64) + 0.5) / side
+    u0, u1 = (g.reshape(-1) for g in torch.meshgrid(grid, grid, indexing="ij"))
+    cos_v = (torch.arange(size, dtype=torch.float64) / (size - 1)).clamp(min=MIN_COS)
+    alpha = (torch.arange(size, dtype=torch.float64) / (size - 1)) ** 2
+    cv, a = cos_v[:, None, None], alpha[None, :, None]
+    v = torch.stack([torch.sqrt(1 - cv**2), torch.zeros_like(cv), cv], -1)  # (size, 1, 1, 3)
+    tan2 = a**2 * u0 / (1 - u0)
+    cos_h = 1 / torch.sqrt(1 + tan2)
+    sin_h = torch.sqrt(1 - cos_h**2)
+    phi = 2 * math.pi * u1
+    h = torch.stack([sin_h * phi.cos(), sin_h * phi.sin(), cos_h.expand_as(sin_h)], -1)
+    v_dot_h = (v * h).sum(-1)
+    cos_l = 2 * v_dot_h * cos_h - cv  # n.l of l = 2 (v.h) h - v, n = +z
+    valid = (cos_l > 0) & (v_dot_h > 0)
+    g = smith_g1(cos_l, a) * smith_g1(cv.expand_as(cos_l), a)
+    weight = torch.where(valid, g * v_dot_h / (cos_h * cv), 0.0)
+    return weight.mean(-1)
+
+
+def _table_lookup(table: torch.Tensor, cos_v: torch.Tensor, roughness: torch.Tensor):
+    """Bilinear read of :func:`albedo_table` at ``cos_v`` and ``roughness`` (same shape)."""
+    size = table.shape[0]
+    x = cos_v.clamp(0.0, 1.0) * (size - 1)
+    y = roughness.clamp(0.0, 1.0) * (size - 1)
+    i0 = x.floor().clamp(max=size - 2)
+    j0 = y.floor().clamp(max=size - 2)
+    fx, fy = x - i0, y - j0
+    i0, j0 = i0.long(), j0.long()
+    flat = table.reshape(-1)
+    base = i0 * size + j0
+    return (
+        flat[base] * (1 - fx) * (1 - fy)
+        + flat[base + 1] * (1 - fx) * fy
+        + flat[base + size] * fx * (1 - fy)
+        + flat[base + size + 1] * fx * fy
+    )
+
+
+def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor):
+    """Trilinear read ``(B, P, 3)`` of prefiltered maps ``(B, L, h, 2h, 3)`` at unit
+    ``dirs`` ``(B, P, 3)``: bilinear between texel centres (wrapping in azimuth, clamped at
+    the poles) and linear in ``roughness`` ``(B, P)`` between the levels."""
+    batch, levels, h, w, _ = maps.shape
+    theta = torch.arccos(dirs[..., 1].clamp(-1.0, 1.0))
+    phi = torch.atan2(dirs[..., 0], -dirs[..., 2])
+    y = theta / math.pi * h - 0.5
+    x = phi / (2 * math.pi) * w - 0.5
+    s = roughness.clamp(0.0, 1.0) * (levels - 1)
+    r0, c0 = y.floor(), x.floor()
+    k0 = s.floor().clamp(max=levels - 2)
+    fy, fx, fk = y - r0, x - c0, s - k0
+    rows = [r0.clamp(0, h - 1).long(), (r0 + 1).clamp(0, h - 1).long()]
+    cols = [torch.remainder(c0, w).long(), torch.remainder(c0 + 1, w).long()]
+    first = (torch.arange(batch, device=maps.device)[:, None] * levels + k0.long()) * h
+    flat = maps.reshape(-1, 3)
+    out = torch.zeros_like(dirs)
+    for dk, wk in ((0, 1 - fk), (1, fk)):
+        for row, wr in zip(rows, (1 - fy, fy), strict=True):
+            for col, wc in zip(cols, (1 - fx, fx), strict=True):
+                index = ((first + dk * h + row) * w + col).reshape(-1)
+                out = out + flat[index].reshape(dirs.shape) * (wk * wr * wc)[..., None]
+    return out
+
+
+def specular_shading(
+    normals: torch.Tensor,
+    view_dirs: torch.Tensor,
+    alpha: torch.Tensor,
+    maps: torch.Tensor,
+    table: torch.Tensor,
+) -> torch.Tensor:
+    """``S_S`` ``(B, P, 3)`` by the split sum (module docstring): unit ``normals`` and
+    ``view_dirs`` ``(B, P, 3)`` (towards the eye), GGX width ``alpha`` ``(B, P)``, the
+    prefiltered maps ``(B, L, h, 2h, 3)`` (:func:`prefilter`) and :func:`albedo_table`;
+    0 where ``n.v <= 0``."""
+    cos_v = (normals * view_dirs).sum(-1)
+    mirror = 2 * cos_v[..., None] * normals - view_dirs
+    # The lobe of a rough surface leans from the mirror direction towards the normal
+    # (Lagarde and de Rousiers 2014, "dominant direction"): without this the maps are read
+    # too near the horizon and S_S of roughness 0.9 comes out up to 2x too dark.
+    smooth = 1 - alpha.clamp(0.0, 1.0)
+    lean = (smooth * (torch.sqrt(smooth) + alpha))[..., None]
+    dominant = normals + lean * (mirror - normals)
+    dominant = dominant / dominant.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+    roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
+    radiance = _map_lookup(maps, dominant, roughness)
+    albedo = _table_lookup(table.to(normals.dtype), cos_v, roughness)
+    return torch.where(cos_v > 0, albedo, 0.0)[..., None] * radiance
+
+
+def prefiltered_shading(
+    normals: torch.Tensor,
+    view_dirs: torch.Tensor,
+    alpha: torch.Tensor,
+    coefficients: torch.Tensor,
+    maps: torch.Tensor,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``S_D`` and ``S_S`` ``(P, 3)`` for ``P`` points under one lighting: the
+    counterpart of :func:`neurender.ndr.shading.coarse_shading`.
+
+    Args:
+        normals, view_dirs: ``(P, 3)`` unit vectors (view_dir points to the eye).
+        alpha: ``(P,)`` GGX width.
+        coefficients: ``(25, 3)`` the map's 5-band SH.
+        maps: ``(L, h, 2h, 3)`` its prefiltered maps (:func:`prefilter`).
+    """
+    dtype = normals.dtype
+    s_d = diffuse_shading(normals, coefficients.to(dtype))
+    s_s = specular_shading(
+        normals[None], view_dirs[None], alpha[None].to(dtype), maps[None].to(dtype), albedo_table()
+    )[0]
+    return s_d, s_s
+
+
+def lighting(environment: np.ndarray, coarse: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+    """The fast shading's lighting of one map: the 5-band SH ``(25, 3)`` float64 of
+    ``environment`` ``(H, 2H, 3)`` (what the network's light input is made of) and the
+    prefiltered maps ``(L, h, 2h, 3)`` of its downsampled copy ``coarse`` ``(h, 2h, 3)``."""
+    coefficients = torch.from_numpy(sh.project_latlong(environment, SH_BANDS))
+    return coefficients, prefilter(torch.from_numpy(np.asarray(coarse, np.float64)))

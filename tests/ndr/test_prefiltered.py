@@ -1,0 +1,162 @@
+"""The prefiltered coarse shading against analytic answers and the importance-sampled
+reference (:mod:`neurender.ndr.shading`)."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from neurender import lights, sh
+from neurender.ndr import environments
+from neurender.ndr import prefiltered as pf
+from neurender.ndr.shading import coarse_shading
+from tests.ndr.test_shading import _ggx_albedo_by_quadrature
+
+
+def _normals(count: int, seed: int) -> torch.Tensor:
+    g = torch.Generator().manual_seed(seed)
+    return torch.nn.functional.normalize(
+        torch.randn(count, 3, dtype=torch.float64, generator=g), dim=-1
+    )
+
+
+def test_constant_map_gives_unit_diffuse_shading():
+    """White furnace: the SH of a unit map is ``2 sqrt(pi)`` in ``y_0^0`` alone, and
+    ``S_D`` is exactly 1 at every normal; from a projected 128 x 256 map to its
+    quadrature's accuracy."""
+    n = _normals(500, 0)
+    exact = torch.zeros(25, 3, dtype=torch.float64)
+    exact[0] = 2 * math.sqrt(math.pi)
+    np.testing.assert_allclose(pf.diffuse_shading(n, exact).numpy(), 1.0, atol=1e-12)
+    projected = torch.from_numpy(sh.project_latlong(np.ones((128, 256, 3)), 5))
+    np.testing.assert_allclose(pf.diffuse_shading(n, projected).numpy(), 1.0, atol=2e-4)
+
+
+def test_linear_map_gives_the_analytic_irradiance():
+    """``L(w) = a + b (w.d)`` has ``S_D = a + 2 b (n.d) / 3`` (no clamp: ``a > b``)."""
+    d = np.array([0.3, 0.8, -0.52])
+    d /= np.linalg.norm(d)
+    dirs, _ = sh.latlong_directions(64, 128)
+    env = (1.0 + 0.6 * dirs @ d)[..., None] * np.array([1.0, 0.5, 0.25])
+    coefficients = torch.from_numpy(sh.project_latlong(env, 5))
+    n = _normals(300, 1)
+    expected = (1.0 + 0.4 * n.numpy() @ d)[:, None] * np.array([1.0, 0.5, 0.25])
+    np.testing.assert_allclose(pf.diffuse_shading(n, coefficients).numpy(), expected, atol=1e-3)
+
+
+def test_prefilter_rows_are_normalised_weights_and_level_zero_is_the_map():
+    m = pf.prefilter_matrix(8)
+    assert m.shape == (pf.LEVELS, 128, 128)
+    assert (m >= 0).all()
+    np.testing.assert_allclose(m.sum(-1).numpy(), 1.0, atol=1e-12)
+    env = torch.rand(8, 16, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(2))
+    maps = pf.prefilter(env)
+    assert torch.equal(maps[0], env)
+    # Rougher levels blur more: the variance over the map falls level by level.
+    spread = [float(level.var()) for level in maps]
+    assert all(a > b for a, b in zip(spread, spread[1:], strict=False))
+
+
+def test_map_lookup_at_texel_centres_reads_the_texels():
+    """Bilinear lat-long reads in the convention of :mod:`neurender.sh`: texel centres
+    return the texel; roughness between two levels interpolates them linearly."""
+    maps = torch.rand(
+        1, 2, 8, 16, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(3)
+    )
+    dirs = torch.from_numpy(sh.latlong_directions(8, 16)[0]).reshape(1, -1, 3)
+    got = pf._map_lookup(maps, dirs, torch.zeros(1, 128, dtype=torch.float64))
+    np.testing.assert_allclose(got.numpy().reshape(8, 16, 3), maps[0, 0].numpy(), atol=1e-12)
+    half = pf._map_lookup(maps, dirs, torch.full((1, 128), 0.25, dtype=torch.float64))
+    expected = 0.75 * maps[0, 0] + 0.25 * maps[0, 1]
+    np.testing.assert_allclose(half.numpy().reshape(8, 16, 3), expected.numpy(), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("cos_v", "roughness"), [(1.0, 0.45), (0.6, 0.7), (0.9, 0.95), (0.33, 0.3)]
+)
+def test_constant_map_gives_the_ggx_albedo(cos_v, roughness):
+    """White furnace: every prefiltered level of a unit map is 1, so ``S_S`` is the albedo
+    table's value, which matches an independent quadrature within 1 % (also between the
+    table's entries)."""
+    normals = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
+    views = torch.tensor([[math.sqrt(1 - cos_v**2), 0.0, cos_v]], dtype=torch.float64)
+    env = torch.ones(16, 32, 3, dtype=torch.float64)
+    coefficients = torch.from_numpy(sh.project_latlong(env.numpy(), 5))
+    alpha = torch.tensor([roughness**2], dtype=torch.float64)
+    _, s_s = pf.prefiltered_shading(normals, views, alpha, coefficients, pf.prefilter(env))
+    expected = _ggx_albedo_by_quadrature(cos_v, roughness**2)
+    np.testing.assert_allclose(s_s.numpy(), expected, rtol=0.01)
+
+
+def test_batched_shading_is_the_shading_of_each_image():
+    envs = [lights.procedural_probe(name, 16) for name in ("sky", "studio")]
+    maps = torch.stack([pf.prefilter(torch.from_numpy(e).double()) for e in envs])
+    n = _normals(200, 4).reshape(2, 100, 3)
+    v = torch.nn.functional.normalize(n + 0.7 * _normals(200, 5).reshape(2, 100, 3), dim=-1)
+    alpha = torch.rand(2, 100, dtype=torch.float64, generator=torch.Generator().manual_seed(6))
+    both = pf.specular_shading(n, v, alpha, maps, pf.albedo_table())
+    for b in range(2):
+        one = pf.specular_shading(
+            n[b : b + 1], v[b : b + 1], alpha[b : b + 1], maps[b : b + 1], pf.albedo_table()
+        )
+        np.testing.assert_allclose(both[b].numpy(), one[0].numpy(), atol=1e-12)
+
+
+#: Mean |fast - reference| / mean reference, S_D and S_S, that the fast shading stays within
+#: on real maps (measured: benchmarks/results/coarse_shading_accuracy.csv).
+REAL_MAP_TOLERANCE = {"S_D": 0.08, "S_S": 0.3}
+
+
+@pytest.mark.parametrize("map_name", ["sky", "studio", "sunlit"])
+@pytest.mark.parametrize("roughness", [0.2, 0.5, 0.9])
+def test_real_maps_agree_with_the_importance_sampled_reference(map_name, roughness):
+    """Camera-facing points (view along +z) under built-in and real-world-like maps: the
+    fast shading's mean relative difference from the reference (256 samples per lobe,
+    bright texels by MIS) stays within :data:`REAL_MAP_TOLERANCE`, and the means agree
+    within 10 %."""
+    if map_name == "sunlit":
+        env = environments.sunlit_environment(np.random.default_rng(7), 128)
+    else:
+        env = lights.procedural_probe(map_name, 128)
+    small = environments.resize_latlong(env, 16)
+    coefficients, maps = pf.lighting(env, small)
+    n = _normals(3000, 8)
+    n = n[n[:, 2] > 0.05]
+    v = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64).expand_as(n)
+    alpha = torch.full((len(n),), roughness**2, dtype=torch.float64)
+    fast = pf.prefiltered_shading(n, v, alpha, coefficients, maps)
+    ref = coarse_shading(
+        n, v, alpha, torch.from_numpy(small), 256, torch.Generator().manual_seed(9)
+    )
+    for name, f, r in zip(("S_D", "S_S"), fast, ref, strict=True):
+        rel = float((f - r).abs().mean() / r.mean())
+        assert rel < REAL_MAP_TOLERANCE[name], (name, rel)
+        assert float(f.mean() / r.mean()) == pytest.approx(1.0, abs=0.1), name
+
+
+def test_the_data_stage_writes_the_prefiltered_shading_when_asked():
+    """``ndr.coarse_shading: prefiltered``: a sample's ``S_D``, ``S_S`` are the fast
+    shading of its object's pixels under its map (SH of the full map, prefiltered copies
+    of the coarse one), 0 off the object, and deterministic."""
+    from neurender.ndr import data, render
+    from tests.ndr.test_render import CFG
+
+    cfg = {**CFG, "coarse_shading": "prefiltered"}
+    obj, env, _, _ = data.sample_scene(cfg, "train", 0)
+    g = render.g_buffers(obj, render.camera(cfg["camera_distance"], cfg["fov"]), cfg["width"])
+    s_d, s_s = data.coarse_maps(cfg, g, env, "train", 0)
+    m = g["mask"] > 0
+    assert m.any() and (s_d[~m] == 0).all() and (s_s[~m] == 0).all()
+    coefficients, maps = pf.lighting(env, environments.resize_latlong(env, cfg["coarse_height"]))
+    expected = pf.prefiltered_shading(
+        torch.from_numpy(g["normal"][m]).double(),
+        torch.from_numpy(g["view_dir"][m]).double(),
+        torch.from_numpy(g["roughness"][m]).double() ** 2,
+        coefficients,
+        maps,
+    )
+    np.testing.assert_allclose(s_d[m], expected[0].numpy(), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(s_s[m], expected[1].numpy(), rtol=1e-5, atol=1e-6)
+    again = data.coarse_maps(cfg, g, env, "train", 1)  # the key seeds nothing here
+    assert np.array_equal(again[0], s_d) and np.array_equal(again[1], s_s)
