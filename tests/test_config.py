@@ -141,28 +141,23 @@ def test_a_head_budget_above_its_detail_is_refused(smoke):
     assert found and found[0].startswith("simplification.head_triangles = 5000")
 
 
-def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("metaballs:\n  balls: [6, 2]\n")
+def _refused_dry_run(extra: Path) -> str:
+    """The output of a dry run of the smoke config with ``extra`` over it, which must fail."""
     result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "results/report.html",
-            "-n",
-            "--cores",
-            "1",
-            "--configfile",
-            "config/smoke.yaml",
-            str(bad),
-        ],
+        [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--cores", "1"]
+        + ["--configfile", "config/smoke.yaml", str(extra)],
         cwd=ROOT,
         capture_output=True,
         text=True,
     )
     assert result.returncode != 0
-    out = result.stdout + result.stderr
+    return result.stdout + result.stderr
+
+
+def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("metaballs:\n  balls: [6, 2]\n")
+    out = _refused_dry_run(bad)
     assert "metaballs.balls = [6, 2]: expected [min, max] with min <= max" in out
 
 
@@ -185,25 +180,7 @@ def test_a_renamed_section_is_refused_naming_its_new_key_and_the_file_that_sets_
 def test_the_dry_run_names_the_new_key_before_the_schema_refuses_the_old_one(tmp_path):
     old = tmp_path / "old.yaml"
     old.write_text("simplify:\n  steps: 10\n")
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "results/report.html",
-            "-n",
-            "--cores",
-            "1",
-            "--configfile",
-            "config/smoke.yaml",
-            str(old),
-        ],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-    )
-    assert result.returncode != 0
-    out = result.stdout + result.stderr
+    out = _refused_dry_run(old)
     assert (
         "config key 'simplify' was renamed to 'simplification' (neurender 0.2); "
         f"rename the section in {old}"
@@ -230,12 +207,18 @@ def _old_name_patterns(old):
     )
 
 
+def _built(path: Path) -> bool:
+    """Files a build or an install writes into the tree (bytecode, pip's egg-info, which
+    copies the README of whichever release was installed), not the project's own."""
+    return any(part == "__pycache__" or part.endswith(".egg-info") for part in path.parts)
+
+
 def test_no_own_file_names_a_renamed_key_as_a_key_rule_or_module():
     files = [
         path
         for top in _OWN_FILES
         for path in ([ROOT / top] if (ROOT / top).is_file() else (ROOT / top).rglob("*"))
-        if path.is_file() and path.suffix in _TEXT_SUFFIXES and "__pycache__" not in path.parts
+        if path.is_file() and path.suffix in _TEXT_SUFFIXES and not _built(path)
     ]
     assert len(files) > 100  # the walk found the tree
     found = []
@@ -301,16 +284,9 @@ def test_names_yaml_does_not_read_as_text_are_refused_naming_each(tmp_path):
 def test_the_dry_run_refuses_an_unquoted_name_before_the_schema(tmp_path):
     extra = tmp_path / "extra.yaml"
     extra.write_text("ndr:\n  user_objects:\n    001: results/examples/crate.obj\n")
-    result = subprocess.run(
-        [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--cores", "1"]
-        + ["--configfile", "config/smoke.yaml", str(extra)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-    )
-    assert result.returncode != 0
-    assert "names must be text" in result.stdout + result.stderr
-    assert "ndr.user_objects.1 (read as int)" in result.stdout + result.stderr
+    out = _refused_dry_run(extra)
+    assert "names must be text" in out
+    assert "ndr.user_objects.1 (read as int)" in out
 
 
 def test_a_coarse_map_too_large_for_the_prefilter_is_refused(smoke):
