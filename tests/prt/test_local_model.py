@@ -15,6 +15,7 @@ from neurender.prt.local_model import (
     local_features,
     receptive_field,
 )
+from neurender.prt.model import DeepPRT, export_deepprt
 from neurender.prt.training import train_local
 
 
@@ -154,3 +155,10 @@ def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, mate
         loaded = load_local(ckpt)(x).numpy()
     assert err < 0.7 * base
     assert np.allclose(loaded, model(x).detach().numpy(), atol=1e-6)
+    # The shared loader serves it as it serves the paper's form, by PyTorch and by the
+    # exported file.
+    onnx = tmp_path / "local.onnx"
+    export_deepprt(ckpt, val, onnx)
+    net = DeepPRT(ckpt, onnx, device="cpu")
+    for engine in ("pytorch", "onnxruntime"):
+        assert np.allclose(net.predict(val, engine=engine), loaded, rtol=1e-4, atol=1e-5)

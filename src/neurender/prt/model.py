@@ -22,6 +22,7 @@ from neurender.devices import resolve_device
 from neurender.nn.inference import OnnxNetwork, export_onnx, prepare_for_inference
 from neurender.nn.unet import ResUNet, count_parameters
 from neurender.prt.frames import Split
+from neurender.prt.local_model import load_local
 
 log = logging.getLogger(__name__)
 
@@ -116,8 +117,28 @@ class TransferNetwork(nn.Module):
         return self.network(torch.cat([p, x[:, 3:]], 1)) * self.t_scale + self.t_offset
 
 
+def load_transfer_module(checkpoint: str | Path) -> nn.Module:
+    """The eval-mode graph of a checkpoint of either DeepPRT variant: raw P and N images
+    ``(B, 6, n, n)`` to transfer ``(B, C, n, n)`` in physical units.
+
+    The paper's form (:func:`neurender.prt.training.train_deepprt`) gives a
+    :class:`TransferNetwork`; the shadowing variant (its checkpoint holds a
+    ``local_config``, :func:`neurender.prt.training.train_local`) a
+    :class:`neurender.prt.local_model.ShadowingTransfer`.
+    """
+    state = train.load_checkpoint(checkpoint)
+    extra = state["extra"]
+    if "local_config" in extra:
+        return load_local(checkpoint)
+    model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
+    model.load_state_dict(state["model"])
+    norm = Normalisation(**{k: np.asarray(v) for k, v in extra["normalisation"].items()})
+    return TransferNetwork(model, norm).eval()
+
+
 class DeepPRT:
-    """A trained network for inference on numpy splits.
+    """A trained network of either variant (:func:`load_transfer_module`) for inference on
+    numpy splits.
 
     It runs the exported ONNX file with ONNX Runtime when one is given and the device is the
     CPU (the faster engine there), PyTorch otherwise; ``engines`` holds both on the CPU so
@@ -131,14 +152,10 @@ class DeepPRT:
         device: str = "auto",
         threads: int = 1,
     ):
-        state = train.load_checkpoint(checkpoint)
-        extra = state["extra"]
         self.device = resolve_device(device, threads)
-        model = build_network(extra["out_channels"], extra["widths"], extra["blocks"])
-        model.load_state_dict(state["model"])
-        self.parameters = count_parameters(model)
-        self.norm = Normalisation(**{k: np.asarray(v) for k, v in extra["normalisation"].items()})
-        self.module = TransferNetwork(prepare_for_inference(model), self.norm).to(self.device)
+        module = load_transfer_module(checkpoint)
+        self.parameters = count_parameters(module)
+        self.module = prepare_for_inference(module).to(self.device)
         self.engines = {"pytorch": self._run_pytorch}
         if onnx_file is not None and self.device.type == "cpu":
             self.engines["onnxruntime"] = OnnxNetwork(onnx_file, threads)
@@ -157,9 +174,10 @@ class DeepPRT:
 
 
 def export_deepprt(checkpoint: str | Path, example: Split, out: str | Path) -> None:
-    """Write the network file a renderer ships: ``checkpoint``'s network with its
-    normalisation (:class:`TransferNetwork`) as ONNX, checked against PyTorch on the first
-    two frames of ``example`` (the first twice if it has one)."""
+    """Write the network file a renderer ships: ``checkpoint``'s graph of either variant
+    (:func:`load_transfer_module`) as ONNX, checked against PyTorch on the first two frames
+    of ``example`` (the first twice if it has one) relative to the output's magnitude
+    (transfer is in physical units)."""
     net = DeepPRT(checkpoint, device="cpu")
     x = raw_inputs(example)
-    export_onnx(net.module, torch.from_numpy(x[np.arange(2) % len(x)]), out)
+    export_onnx(net.module, torch.from_numpy(x[np.arange(2) % len(x)]), out, rtol=1e-4)
