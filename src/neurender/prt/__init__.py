@@ -20,6 +20,11 @@ OBJECTS = ("head", "cloth", "creature")
 SPLITS = ("train", "val", "test")
 #: Transfer kinds, one network each: diffuse (K coefficients) and glossy (3 K).
 MATERIALS = ("diffuse", "glossy")
+#: Network variants (``prt_model.variants``), each trained per object and material at the
+#: same epochs, and their names in the tables: ``paper``, the paper's U-Net from P and N
+#: (:mod:`neurender.prt.model`); ``shadowing``, the analytic unshadowed transfer plus a
+#: local network for what shadowing removes (:mod:`neurender.prt.local_model`).
+VARIANTS = {"paper": "DeepPRT", "shadowing": "DeepPRT shadowing"}
 #: Datasets of paper section 4.2.2 (Fig. 6), built on the head's geometry image: a linear
 #: shape space with a plane, and the head without one expression in training.
 EXPERIMENTS = ("head_linear", "head_excluded")
