@@ -42,9 +42,9 @@ def test_a_trained_checkpoint_loads_with_weights_only_and_keeps_the_normalisatio
     for name, value in vars(fitted).items():
         assert getattr(stored, name).dtype == value.dtype
         np.testing.assert_array_equal(getattr(stored, name), value)
-    np.testing.assert_array_equal(
-        DeepPRT(paths["glossy"], device="cpu").norm.t_offset, fitted.t_offset
-    )
+    # The loaded graph's buffer (channels-last copies keep the values).
+    loaded = DeepPRT(paths["glossy"], device="cpu").module.t_offset.numpy()
+    np.testing.assert_array_equal(loaded[0], fitted.t_offset)
 
 
 def test_compression_rows_read_the_parameters_from_the_checkpoints(trained):
