@@ -38,8 +38,8 @@ CFG = {
 
 
 def _scores(rows: list[tuple[int, float, float]]) -> pd.DataFrame:
-    """A hand-made sweep: ``(spp, ms_per_frame, dssim_I_R)`` per row."""
-    return pd.DataFrame(rows, columns=["spp", "ms_per_frame", eq.METRIC])
+    """A hand-made sweep: ``(spp, ms_per_frame, dssim_I_R)`` per row (scenes built in 1 ms)."""
+    return pd.DataFrame(rows, columns=["spp", "ms_per_frame", eq.METRIC]).assign(scene_ms=1.0)
 
 
 SWEEP = _scores([(1, 2.0, 0.20), (4, 5.0, 0.10), (16, 17.0, 0.05), (64, 65.0, 0.02)])
@@ -87,7 +87,7 @@ def test_the_table_states_both_ratios_and_the_pick():
     assert set(table[table.model == eq.NETWORK].setting) == {"16 spp"}
     mitsuba = table[table.model == eq.MITSUBA]
     assert set(mitsuba.setting) == {"1 spp", "4 spp", "16 spp", "64 spp"}
-    assert len(mitsuba) == 2 * len(SWEEP)
+    assert len(mitsuba) == 3 * len(SWEEP)  # ms_per_frame, scene_ms, DSSIM
     unreached = eq.table(SWEEP, 0.01, _network(), 16)
     row = unreached[unreached.model == eq.NETWORK]
     assert set(row.setting) == {"none"} and set(row.bound) == {eq.LOWER}
@@ -150,7 +150,8 @@ def test_the_training_spp_render_is_the_noise_floors(mitsuba, tiny_split):
     """Drawn and seeded as the data stage draws the noise-floor render."""
     mi, _ = mitsuba
     _, test = tiny_split
-    maps = eq.render_maps(mi, CFG, eq.scene_of(CFG, 1), CFG["spp"])
+    scene = eq.scene_of(CFG, 1)
+    maps = eq.render_maps(mi, eq.load_scene(mi, CFG, scene, CFG["spp"]), scene)
     stored = test[1]["I_D_noisy"].permute(1, 2, 0).numpy()
     np.testing.assert_allclose(maps["I_D"], stored, rtol=1e-5, atol=1e-6)
 
@@ -175,7 +176,7 @@ def test_the_job_writes_every_spp_and_ndrs_scores_on_the_same_samples(tiny_split
     table = io.read_csv(outputs["table"])
     mitsuba = table[table.model == eq.MITSUBA]
     assert set(mitsuba.setting) == {"1 spp", "4 spp", "16 spp"}  # the training 4 added
-    assert set(mitsuba.metric) == {"ms_per_frame", eq.METRIC}
+    assert set(mitsuba.metric) == {"ms_per_frame", "scene_ms", eq.METRIC}
     assert (mitsuba[mitsuba.metric == "ms_per_frame"].value > 0).all()
     per_sample = pd.DataFrame(scored.per_sample)
     dssim = per_sample[per_sample.metric == eq.METRIC].groupby("model")["value"].mean()
