@@ -36,7 +36,7 @@ from types import ModuleType
 import numpy as np
 import pandas as pd
 import torch
-from matplotlib.ticker import NullFormatter, ScalarFormatter
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, render
 from neurender.ndr.buffers import NDRDataset
@@ -302,8 +302,9 @@ def quality_figure(
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    for axis in (ax.xaxis, ax.yaxis):  # after the scales, which reset the formatters
-        axis.set_major_formatter(ScalarFormatter())
+    for axis in (ax.xaxis, ax.yaxis):  # after the scales, which reset them; 1-2-5 ticks
+        axis.set_major_locator(LogLocator(subs=(1, 2, 5)))
+        axis.set_major_formatter(FormatStrFormatter("%g"))
         axis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("ms per frame")
     ax.set_ylabel(f"{METRIC} (lower is better)")
