@@ -84,6 +84,14 @@ def test_a_reference_below_four_times_the_directions_is_refused(smoke):
     ]
 
 
+def test_an_equal_quality_sweep_over_more_than_the_test_samples_is_refused(smoke):
+    found = rules.problems(_with(smoke, "ndr.equal_quality_samples", 4))
+    assert found == [
+        "ndr.equal_quality_samples = 4: expected at most ndr.samples.test = 3 (the sweep "
+        "renders test samples)"
+    ]
+
+
 def test_experiment_frames_above_the_training_frames_are_refused(smoke):
     found = rules.problems(_with(smoke, "prt.experiment_train_frames", 7))
     assert found == ["prt.experiment_train_frames = 7: expected at most prt.frames.train = 6"]

@@ -65,6 +65,21 @@ def test_g_buffers_of_a_sphere_match_the_camera_analytically():
     assert (g["normal"][g["mask"] == 0] == 0).all()
 
 
+def test_a_built_scene_renders_both_maps_again_as_a_fresh_one(mitsuba):
+    """:func:`render.render_shading` leaves its scene on the diffuse lobe, so rendering it
+    again (as the equal-quality sweep times it) gives the maps of :func:`render.shading_maps`."""
+    mi, _ = mitsuba
+    obj, env, _, _ = data.sample_scene(CFG, "test", 0)
+    view = render.camera(CFG["camera_distance"], CFG["fov"])
+    fresh = render.shading_maps(mi, obj, env, view, 16, 4, 11)
+    scene = render.shading_scene(mi, obj, env, view, 16, 4)
+    for _ in range(2):
+        again = render.render_shading(mi, scene, 11)
+        for key in ("I_D", "I_S", "coverage"):
+            np.testing.assert_allclose(again[key], fresh[key], rtol=1e-5, atol=1e-6, err_msg=key)
+    assert not np.allclose(fresh["I_D"], fresh["I_S"])
+
+
 def test_split_names():
     assert split_kind("diffuse_test") == ("diffuse", "test")
     assert split_kind("train") == ("complex", "train")

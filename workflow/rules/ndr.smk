@@ -147,9 +147,41 @@ rule ndr_deploy:
         "../scripts/ndr_deploy.py"
 
 
+rule ndr_equal_quality:
+    input:
+        unpack(ndr_equal_quality_inputs),
+        checkpoint="results/ndr/models/ndr.pt",
+        samples="results/ndr/metrics_samples.csv",
+    output:
+        table=report(
+            "results/ndr/equal_quality.csv",
+            category="NDR",
+            labels={"table": "equal quality"},
+        ),
+        figure=report(
+            "results/ndr/figures/equal_quality.png",
+            category="NDR",
+            labels={"figure": "equal quality"},
+        ),
+    log:
+        "results/logs/ndr_equal_quality/ndr_equal_quality.log",
+    benchmark:
+        "results/benchmarks/ndr_equal_quality/ndr_equal_quality.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("ndr_equal_quality"),
+    params:
+        cfg=ndr_equal_quality_params(),
+    script:
+        "../scripts/ndr_equal_quality.py"
+
+
 rule ndr_targets:
     input:
         metrics="results/ndr/metrics.csv",
+        equal_quality="results/ndr/equal_quality.csv",
         benchmarks=[path for path, _ in ndr_benchmarks()],
     output:
         targets=report(

@@ -8,7 +8,8 @@ scene and its buffers; the coarse shading importance-sampled or prefiltered), ``
 and ``pool`` (a split's samples), ``buffers`` (their file format and loading),
 ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
 ``deploy`` and ``shipped`` (the ONNX files: the networks; shading and network in one
-graph), ``relight``, ``furnace``, ``summary`` (statistics, timings, targets),
+graph), ``equal_quality`` (NDR against Mitsuba's sample counts), ``relight``,
+``furnace``, ``summary`` (statistics, timings, targets),
 ``user_objects`` (your meshes; :mod:`neurender.asset_files` finds the files they name),
 ``figures`` and ``jobs`` (one function per rule of ``workflow/rules/ndr.smk``).
 """
@@ -35,6 +36,10 @@ DATASETS = {"complex": "complex", "diffuse": "diffuse", "sunlit": "real-world-li
 
 #: The data each kind's test set is rendered by the networks trained on.
 TRAINED_ON = {"complex": "complex", "diffuse": "diffuse", "sunlit": "complex"}
+
+#: Timed calls per render of the equal-quality sweep and per part of NDR's frame (each
+#: after one uncounted call; :mod:`neurender.ndr.equal_quality`).
+EQUAL_QUALITY_REPEATS = 3
 
 #: The variants trained and tested on the diffuse, fixed-illumination data.
 DIFFUSE_VARIANTS = tuple(name for name, v in VARIANTS.items() if v.data == "diffuse")

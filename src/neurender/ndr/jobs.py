@@ -23,6 +23,7 @@ from neurender.ndr import (
     VARIANTS,
     data,
     deploy,
+    equal_quality,
     figures,
     furnace,
     pool,
@@ -143,12 +144,43 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     io.write_csv(outputs["table"], deployment_table(rows))
 
 
+def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """NDR (``checkpoint``) against Mitsuba at every sample count of ``equal_quality_spp``
+    and the training ``spp`` on the first ``equal_quality_samples`` test samples
+    (:mod:`neurender.ndr.equal_quality`): NDR's DSSIM from the evaluation's per-sample
+    ``samples``, Mitsuba's against the test split's references; Mitsuba and NDR timed on
+    ``threads`` threads in this process. The table and the figure."""
+    mi, dr = require_mitsuba(params["device"])
+    dr.set_thread_count(threads)
+    device = resolve_device(params["device"], threads)
+    count = params["equal_quality_samples"]
+    test = NDRDataset.from_files(_split_files(inputs, "test"), params["mask_erosion"], count)
+    if len(test) < count:
+        raise ValueError(
+            f"ndr.equal_quality_samples = {count}: the test split {inputs['test_manifest']} "
+            f"has {len(test)} samples"
+        )
+    scenes = [equal_quality.scene_of(params, i) for i in range(count)]
+    spps = equal_quality.sweep(params["equal_quality_spp"], params["spp"])
+    scores = equal_quality.score_sweep(mi, params, scenes, test.buffers, spps)
+    per_sample = io.read_csv(inputs["samples"], ["dataset", "model", "sample", "metric", "value"])
+    target = equal_quality.network_dssim(per_sample, range(count))
+    model = load_model(inputs["checkpoint"], device)
+    network = equal_quality.network_milliseconds(params, model, scenes, test, device)
+    io.write_csv(outputs["table"], equal_quality.table(scores, target, network, params["spp"]))
+    equal_quality.quality_figure(scores, target, network, params["spp"], outputs["figure"])
+
+
 def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The targets: the test metrics and the stage's time from every NDR job's benchmark
-    (its threads in ``params["job_threads"]``) on ``params["cores"]`` cores."""
+    """The targets: the test metrics, the speed against Mitsuba (``equal_quality``) and the
+    stage's time from every NDR job's benchmark (its threads in ``params["job_threads"]``)
+    on ``params["cores"]`` cores."""
     minutes = summary.stage_minutes(inputs["benchmarks"], params["job_threads"], params["cores"])
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
-    io.write_csv(outputs["targets"], summary.targets(metrics, minutes, params["cores"]))
+    columns = ["model", "split", "setting", "bound", "metric", "value"]
+    equal = io.read_csv(inputs["equal_quality"], columns)
+    table = summary.targets(metrics, equal, minutes, params["cores"])
+    io.write_csv(outputs["targets"], table)
 
 
 def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

@@ -12,7 +12,12 @@ from typing import Any
 
 from neurender import asset_files, checks, io
 from neurender.method import Method, ReportInputs, Rule, Units, unet_work
-from neurender.ndr import DIFFUSE_VARIANTS, MESH_SUFFIXES, user_probe_files
+from neurender.ndr import (
+    DIFFUSE_VARIANTS,
+    EQUAL_QUALITY_REPEATS,
+    MESH_SUFFIXES,
+    user_probe_files,
+)
 from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
@@ -46,6 +51,11 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         yield (
             f"ndr.coarse_height = {ndr['coarse_height']}: expected at most "
             f"ndr.environment_height = {ndr['environment_height']}"
+        )
+    if ndr["equal_quality_samples"] > ndr["samples"]["test"]:
+        yield (
+            f"ndr.equal_quality_samples = {ndr['equal_quality_samples']}: expected at most "
+            f"ndr.samples.test = {ndr['samples']['test']} (the sweep renders test samples)"
         )
     if model["relight_sample"] >= ndr["samples"]["test"]:
         yield (
@@ -118,6 +128,16 @@ def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return TURNS * w * w * spp / 1e6, TURNS * w * w * 40 / 1e6
 
 
+def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Mitsuba samples of the sweep (each render timed, after one uncounted call) and the
+    coarse shading's per timed NDR frame, on its test samples."""
+    ndr = cfg["ndr"]
+    w = ndr["width"]
+    spp = sum({*ndr["equal_quality_spp"], ndr["spp"]}) + _coarse_samples(ndr)
+    calls = EQUAL_QUALITY_REPEATS + 1
+    return ndr["equal_quality_samples"] * calls * w * w * spp / 1e6, w * w / 1e3
+
+
 def _summary(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """The furnace test's samples."""
     w = cfg["ndr"]["width"]
@@ -143,8 +163,9 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures and viewer (the relit test sample) of NDR's report section;
     the user objects' table and figure when there are any."""
-    tables = ("targets", "metrics", "timing", "deployment", "relighting", "furnace", "data")
-    figures = ("buffers", "comparison", "relighting", "training_curves")
+    tables = ("targets", "metrics", "timing", "equal_quality", "deployment", "relighting")
+    tables += ("furnace", "data")
+    figures = ("buffers", "comparison", "equal_quality", "relighting", "training_curves")
     if config["ndr"]["user_objects"]:
         tables += ("user_objects",)
         figures += ("your_objects",)
@@ -174,6 +195,7 @@ METHOD = Method(
         "ndr_train": Rule(STAGE, _train, gpu=True),
         "ndr_evaluate": Rule(STAGE, _test),
         "ndr_deploy": Rule(STAGE, _deploy),
+        "ndr_equal_quality": Rule(STAGE, _equal_quality),
         "ndr_targets": Rule(STAGE),
         "ndr_relight": Rule(STAGE, _test),
         "ndr_user_objects": Rule(STAGE),

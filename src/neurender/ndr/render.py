@@ -56,6 +56,50 @@ SPECULAR_BSDF = {
 _SWITCH_KEY = "object.bsdf.weight.value"
 
 
+def shading_scene(
+    mi: ModuleType,
+    obj: ProceduralObject,
+    environment: np.ndarray,
+    view: Camera,
+    width: int,
+    spp: int,
+):
+    """The Mitsuba scene of both shading maps of ``obj`` under ``environment`` at ``spp``
+    samples per pixel, set to the diffuse lobe (see :func:`render_shading`)."""
+    bsdf = {"type": "blendbsdf", "weight": 0.0, "diffuse": DIFFUSE_BSDF, "specular": SPECULAR_BSDF}
+    return mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "direct", "hide_emitters": True},
+            "sensor": sensor(mi, view, width, spp),
+            "environment": {
+                "type": "envmap",
+                "bitmap": mi.Bitmap(mitsuba_setup.envmap_rows(environment)),
+            },
+            "object": object_mesh(mi, obj, bsdf),
+        }
+    )
+
+
+def render_shading(
+    mi: ModuleType, scene, seed: int, specular: bool = True
+) -> dict[str, np.ndarray]:
+    """``I_D``, ``I_S`` and coverage (as :func:`shading_maps`) of a :func:`shading_scene`,
+    which is left set to the diffuse lobe again, so it can be rendered any number of times."""
+    image = np.array(mi.render(scene, seed=seed), dtype=np.float32)
+    out = {"I_D": image[..., :3], "coverage": image[..., 3]}
+    if specular:
+        params = mi.traverse(scene)
+        params[_SWITCH_KEY] = 1.0
+        params.update()
+        out["I_S"] = np.array(mi.render(scene, seed=seed + 1), dtype=np.float32)[..., :3]
+        params[_SWITCH_KEY] = 0.0
+        params.update()
+    else:
+        out["I_S"] = np.zeros_like(out["I_D"])
+    return out
+
+
 def shading_maps(
     mi: ModuleType,
     obj: ProceduralObject,
@@ -68,29 +112,8 @@ def shading_maps(
 ) -> dict[str, np.ndarray]:
     """Ray-traced ``I_D`` and ``I_S`` ``(W, W, 3)`` float32 linear radiance and the pixel
     coverage ``(W, W)``; ``I_S`` is zero (and not rendered) when ``specular`` is False."""
-    bsdf = {"type": "blendbsdf", "weight": 0.0, "diffuse": DIFFUSE_BSDF, "specular": SPECULAR_BSDF}
-    scene = mi.load_dict(
-        {
-            "type": "scene",
-            "integrator": {"type": "direct", "hide_emitters": True},
-            "sensor": sensor(mi, view, width, spp),
-            "environment": {
-                "type": "envmap",
-                "bitmap": mi.Bitmap(mitsuba_setup.envmap_rows(environment)),
-            },
-            "object": object_mesh(mi, obj, bsdf),
-        }
-    )
-    image = np.array(mi.render(scene, seed=seed), dtype=np.float32)
-    out = {"I_D": image[..., :3], "coverage": image[..., 3]}
-    if specular:
-        params = mi.traverse(scene)
-        params[_SWITCH_KEY] = 1.0
-        params.update()
-        out["I_S"] = np.array(mi.render(scene, seed=seed + 1), dtype=np.float32)[..., :3]
-    else:
-        out["I_S"] = np.zeros_like(out["I_D"])
-    return out
+    scene = shading_scene(mi, obj, environment, view, width, spp)
+    return render_shading(mi, scene, seed, specular)
 
 
 def g_buffers(obj: ProceduralObject, view: Camera, width: int) -> dict[str, np.ndarray]:

@@ -10,6 +10,7 @@ import pandas as pd
 import torch
 
 from neurender import io
+from neurender.ndr import equal_quality as eq
 from neurender.ndr import split_kind
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import NOISE_FLOOR
@@ -90,10 +91,46 @@ def _beats(ndr: float, name: str, other: float) -> Target:
     )
 
 
-def targets(metrics: pd.DataFrame, minutes: float, cores: int) -> pd.DataFrame:
+def speed_targets(equal: pd.DataFrame) -> list[Target]:
+    """NDR end to end against Mitsuba (``equal_quality.csv``, :mod:`neurender.ndr.
+    equal_quality`): at the training spp, and at equal DSSIM of ``I_R``, where a lower
+    bound that reaches the threshold is met and an upper bound never is (NDR is then worse
+    than the sweep's fewest samples)."""
+    ndr = equal[(equal["model"] == eq.NETWORK) & (equal["split"] == eq.SPLIT)]
+    value = ndr.set_index("metric")["value"]
+    spp = int(value["training_spp"])
+    least = threshold("ndr", "training_spp_speedup")
+    ratio = float(value["speedup_vs_training_spp"])
+    rows = [
+        Target(
+            f"Mitsuba at the training {spp} spp",
+            f"NDR end to end (coarse shading + network) at least {least:g}x faster "
+            "(measured: ratio)",
+            ratio,
+            ratio >= least,
+        )
+    ]
+    least = threshold("ndr", "equal_quality_speedup")
+    bound, setting = ndr["bound"].iloc[0], ndr["setting"].iloc[0]
+    which = setting if bound == eq.WITHIN else f"{bound}: {eq.BOUNDS[bound]}"
+    ratio = float(value["equal_quality_speedup"])
+    rows.append(
+        Target(
+            "Mitsuba at equal DSSIM",
+            f"NDR end to end at least {least:g}x faster than the cheapest Mitsuba render of "
+            f"its DSSIM(I_R) ({which}) (measured: ratio)",
+            ratio,
+            ratio >= least and bound != eq.UPPER,
+        )
+    )
+    return rows
+
+
+def targets(metrics: pd.DataFrame, equal: pd.DataFrame, minutes: float, cores: int) -> pd.DataFrame:
     """The default config's targets on the complex test data (NDR against the shading
     input, every ablation and baseline that ran, and the noise floor), NDR against Real
-    Shading on the diffuse data, and the stage time, each stated as met or missed."""
+    Shading on the diffuse data, NDR's speed against Mitsuba (:func:`speed_targets` of
+    ``equal``, the equal-quality table) and the stage time, each stated as met or missed."""
 
     def dssim(model: str, dataset: str = "complex") -> float:
         return lookup(metrics, model=model, metric="dssim_I_R", dataset=dataset)
@@ -142,6 +179,7 @@ def targets(metrics: pd.DataFrame, minutes: float, cores: int) -> pd.DataFrame:
                 diffuse_ndr < real,
             )
         )
+    rows += speed_targets(equal)
     budget = threshold("ndr", "stage_minutes")
     rows.append(
         Target(

@@ -216,6 +216,26 @@ def ndr_deploy_inputs(wildcards):
     return inputs
 
 
+def ndr_equal_quality_inputs(wildcards):
+    """The test split (its samples are rendered again) and the user's maps (they light
+    some of them)."""
+    files = {f"test_{k}": p for k, p in ndr_split_files("test").items()}
+    return {**ndr_user_probe_files(wildcards), **files}
+
+
+def ndr_equal_quality_params():
+    """The keys that redraw a test sample (its object and map) and render it, the sweep's
+    own and the mask erosion of the scores."""
+    keys = NDR_SAMPLE_KEYS + NDR_SHADING_KEYS[config["ndr"]["coarse_shading"]]
+    keys += NDR_KIND_KEYS["complex"] + ("equal_quality_spp", "equal_quality_samples")
+    return section_keys(
+        "ndr",
+        keys,
+        ("seed", "device"),
+        mask_erosion=config["ndr_model"]["mask_erosion"],
+    )
+
+
 def ndr_deploy_params():
     return section_keys("ndr_model", (), variants=list(NDR_VARIANTS))
 
@@ -233,6 +253,7 @@ def ndr_benchmarks():
         + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
         + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
         + [("results/benchmarks/ndr_deploy/ndr_deploy.tsv", workflow.cores)]
+        + [("results/benchmarks/ndr_equal_quality/ndr_equal_quality.tsv", 1)]
     )
 
 

@@ -1,0 +1,194 @@
+"""NDR against Mitsuba at equal quality: the pick, the scores and the job."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from neurender import io
+from neurender.ndr import data, jobs, summary
+from neurender.ndr import equal_quality as eq
+from neurender.ndr.buffers import NDRDataset
+from neurender.ndr.evaluate import NOISE_FLOOR, score_split
+from neurender.tables import tidy_rows
+
+#: A tiny complex-data config (16 x 16 images, 2 test samples).
+CFG = {
+    "seed": 5,
+    "device": "cpu",
+    "width": 16,
+    "camera_distance": 3.9,
+    "fov": 30.0,
+    "primitives": [2, 3],
+    "edge_length": 0.3,
+    "environment_height": 16,
+    "coarse_height": 8,
+    "coarse_shading": "importance",
+    "coarse_samples": 16,
+    "bright_texels": 16,
+    "spp": 4,
+    "reference_spp": 64,
+    "fixed_probe": "sky",
+    "user_probes_dir": "",
+    "user_probe_fraction": 0.5,
+    "small_sun_fraction": 0.3,
+}
+
+
+def _scores(rows: list[tuple[int, float, float]]) -> pd.DataFrame:
+    """A hand-made sweep: ``(spp, ms_per_frame, dssim_I_R)`` per row (scenes built in 1 ms)."""
+    return pd.DataFrame(rows, columns=["spp", "ms_per_frame", eq.METRIC]).assign(scene_ms=1.0)
+
+
+SWEEP = _scores([(1, 2.0, 0.20), (4, 5.0, 0.10), (16, 17.0, 0.05), (64, 65.0, 0.02)])
+
+
+def test_the_pick_is_the_cheapest_spp_whose_dssim_reaches_the_networks():
+    assert eq.pick(SWEEP, 0.07) == eq.Pick(16, 17.0, eq.WITHIN)
+    # Equal to the network's DSSIM reaches it.
+    assert eq.pick(SWEEP, 0.10) == eq.Pick(4, 5.0, eq.WITHIN)
+    # A noisy time: 64 spp measured faster than 16 is the cheaper render of that quality.
+    noisy = SWEEP.assign(ms_per_frame=[2.0, 5.0, 17.0, 16.0])
+    assert eq.pick(noisy, 0.07) == eq.Pick(64, 16.0, eq.WITHIN)
+
+
+def test_equal_times_pick_the_fewer_samples():
+    tied = _scores([(1, 2.0, 0.2), (4, 9.0, 0.04), (8, 9.0, 0.03), (16, 20.0, 0.01)])
+    assert eq.pick(tied, 0.05) == eq.Pick(4, 9.0, eq.WITHIN)
+
+
+def test_no_spp_reaching_is_a_lower_bound_against_the_most_samples():
+    assert eq.pick(SWEEP, 0.01) == eq.Pick(None, 65.0, eq.LOWER)
+
+
+def test_a_network_worse_than_the_fewest_samples_is_an_upper_bound():
+    assert eq.pick(SWEEP, 0.3) == eq.Pick(1, 2.0, eq.UPPER)
+
+
+def test_the_sweep_adds_the_training_spp_and_refuses_counts_below_one():
+    assert eq.sweep([16, 1, 4], 8) == [1, 4, 8, 16]
+    assert eq.sweep([1, 8], 8) == [1, 8]
+    with pytest.raises(ValueError, match="equal_quality_spp"):
+        eq.sweep([0, 4], 8)
+
+
+def _network() -> dict[str, float]:
+    return {"coarse_shading_ms": 1.0, "network_ms": 1.5, "ms_per_frame": 2.5}
+
+
+def test_the_table_states_both_ratios_and_the_pick():
+    table = eq.table(SWEEP, 0.07, _network(), 16)
+    ndr = table[table.model == eq.NETWORK].set_index("metric")["value"]
+    assert ndr["speedup_vs_training_spp"] == pytest.approx(17.0 / 2.5)
+    assert ndr["equal_quality_speedup"] == pytest.approx(17.0 / 2.5)
+    assert ndr["equal_quality_spp"] == 16 and ndr["training_spp"] == 16
+    assert set(table[table.model == eq.NETWORK].setting) == {"16 spp"}
+    mitsuba = table[table.model == eq.MITSUBA]
+    assert set(mitsuba.setting) == {"1 spp", "4 spp", "16 spp", "64 spp"}
+    assert len(mitsuba) == 3 * len(SWEEP)  # ms_per_frame, scene_ms, DSSIM
+    unreached = eq.table(SWEEP, 0.01, _network(), 16)
+    row = unreached[unreached.model == eq.NETWORK]
+    assert set(row.setting) == {"none"} and set(row.bound) == {eq.LOWER}
+    value = row.set_index("metric")["value"]
+    assert math.isnan(value["equal_quality_spp"])
+    assert value["equal_quality_speedup"] == pytest.approx(65.0 / 2.5)
+
+
+def test_the_speed_targets_are_met_only_by_a_pick_or_a_lower_bound():
+    metrics = pd.DataFrame(
+        [
+            r
+            for m, v in (("ndr", 0.05), ("shading_input", 0.1))
+            for r in tidy_rows("ndr", "complex", m, "test", {"dssim_I_R": v})
+        ]
+    )
+
+    def checks(target: float, ms: float) -> pd.Series:
+        network = {"coarse_shading_ms": ms / 2, "network_ms": ms / 2, "ms_per_frame": ms}
+        equal = eq.table(SWEEP, target, network, 64)
+        table = summary.targets(metrics, equal, 10.0, 2).set_index("subject")
+        return table.loc[["Mitsuba at the training 64 spp", "Mitsuba at equal DSSIM"], "met"]
+
+    assert checks(0.07, 2.0).tolist() == [True, True]  # 32.5x, 8.5x
+    assert checks(0.07, 4.0).tolist() == [False, True]  # 16x, 4.25x
+    assert checks(0.01, 4.0).tolist() == [False, True]  # lower bound 16x
+    assert checks(0.3, 0.5).tolist() == [True, False]  # worse than 1 spp: an upper bound
+
+
+@pytest.fixture(scope="module")
+def tiny_split(tmp_path_factory):
+    """Two test samples of :data:`CFG` rendered by the data stage: their files and buffers."""
+    tmp = tmp_path_factory.mktemp("ndr_equal_quality")
+    files = {
+        "dir": str(tmp / "test"),
+        "manifest": str(tmp / "m.csv"),
+        "lighting": str(tmp / "l.csv"),
+    }
+    data.generate_split(CFG, "test", 2, files["dir"], files["manifest"], files["lighting"], 1)
+    return files, NDRDataset.from_files(files, 1)
+
+
+def test_a_render_scored_against_itself_has_dssim_zero(tiny_split):
+    _, test = tiny_split
+    b = test.buffers
+    assert torch.equal(eq.dssim(b["I_D"], b["I_S"], b), torch.zeros(2))
+    assert (eq.dssim(b["I_D_noisy"], b["I_S_noisy"], b) > 0).all()
+
+
+def test_more_samples_per_pixel_lower_the_dssim(mitsuba, tiny_split):
+    mi, _ = mitsuba
+    _, test = tiny_split
+    scenes = [eq.scene_of(CFG, i) for i in range(2)]
+    scores = eq.score_sweep(mi, CFG, scenes, test.buffers, [1, 4, 32], repeats=1)
+    assert scores[eq.METRIC].is_monotonic_decreasing
+    assert scores[eq.METRIC].iloc[0] > 2 * scores[eq.METRIC].iloc[-1]
+
+
+def test_the_training_spp_render_is_the_noise_floors(mitsuba, tiny_split):
+    """Drawn and seeded as the data stage draws the noise-floor render."""
+    mi, _ = mitsuba
+    _, test = tiny_split
+    scene = eq.scene_of(CFG, 1)
+    maps = eq.render_maps(mi, eq.load_scene(mi, CFG, scene, CFG["spp"]), scene)
+    stored = test[1]["I_D_noisy"].permute(1, 2, 0).numpy()
+    np.testing.assert_allclose(maps["I_D"], stored, rtol=1e-5, atol=1e-6)
+
+
+def test_the_job_writes_every_spp_and_ndrs_scores_on_the_same_samples(tiny_split, tmp_path):
+    files, test = tiny_split
+    split = {f"{part}_{k}": v for part in ("train", "val") for k, v in files.items()}
+    params = {"seed": 0, "device": "cpu", "variant": "ndr", "mask_erosion": 1}
+    params |= {"epochs": 1, "batch_size": 2, "lr": 1e-3, "lr_schedule": "constant"}
+    params |= {"widths": [4, 8], "sh_hidden": 8, "shading_residual": True}
+    checkpoint = str(tmp_path / "ndr.pt")
+    jobs.ndr_train(split, {"checkpoint": checkpoint, "loss": str(tmp_path / "loss.csv")}, params, 1)
+    scored = score_split("complex", test, {"ndr": checkpoint}, torch.device("cpu"))
+    samples = str(tmp_path / "samples.csv")
+    io.write_csv(samples, pd.DataFrame(scored.per_sample))
+    inputs = {f"test_{k}": v for k, v in files.items()} | {"checkpoint": checkpoint}
+    inputs["samples"] = samples
+    outputs = {"table": str(tmp_path / "eq.csv"), "figure": str(tmp_path / "eq.png")}
+    cfg = CFG | {"equal_quality_spp": [1, 16], "equal_quality_samples": 2, "mask_erosion": 1}
+    jobs.ndr_equal_quality(inputs, outputs, cfg, 1)
+
+    table = io.read_csv(outputs["table"])
+    mitsuba = table[table.model == eq.MITSUBA]
+    assert set(mitsuba.setting) == {"1 spp", "4 spp", "16 spp"}  # the training 4 added
+    assert set(mitsuba.metric) == {"ms_per_frame", "scene_ms", eq.METRIC}
+    assert (mitsuba[mitsuba.metric == "ms_per_frame"].value > 0).all()
+    per_sample = pd.DataFrame(scored.per_sample)
+    dssim = per_sample[per_sample.metric == eq.METRIC].groupby("model")["value"].mean()
+    ndr = table[table.model == eq.NETWORK].set_index("metric")["value"]
+    assert ndr[eq.METRIC] == pytest.approx(dssim["ndr"])
+    train = mitsuba[(mitsuba.setting == "4 spp")].set_index("metric")["value"]
+    assert train[eq.METRIC] == pytest.approx(dssim[NOISE_FLOOR], rel=1e-4)
+    assert ndr["speedup_vs_training_spp"] == pytest.approx(
+        train["ms_per_frame"] / ndr["ms_per_frame"]
+    )
+    assert ndr["ms_per_frame"] == pytest.approx(ndr["coarse_shading_ms"] + ndr["network_ms"])
+    assert open(outputs["figure"], "rb").read(4) == b"\x89PNG"
+
+    with pytest.raises(ValueError, match="equal_quality_samples = 3"):
+        jobs.ndr_equal_quality(inputs, outputs, cfg | {"equal_quality_samples": 3}, 1)
