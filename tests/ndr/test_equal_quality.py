@@ -12,6 +12,10 @@ from neurender.ndr import data, jobs, summary
 from neurender.ndr import equal_quality as eq
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import NOISE_FLOOR, score_split
+from neurender.ndr.model import NDRModel
+from neurender.ndr.shipped import INPUTS as SHIPPED_INPUTS
+from neurender.ndr.variants import VARIANTS
+from neurender.nn.inference import OnnxNetwork
 from neurender.tables import tidy_rows
 
 #: A tiny complex-data config (16 x 16 images, 2 test samples).
@@ -170,6 +174,7 @@ def test_the_job_writes_every_spp_and_ndrs_scores_on_the_same_samples(tiny_split
     inputs = {f"test_{k}": v for k, v in files.items()} | {"checkpoint": checkpoint}
     inputs["samples"] = samples
     outputs = {"table": str(tmp_path / "eq.csv"), "figure": str(tmp_path / "eq.png")}
+    outputs["graph"] = str(tmp_path / "ndr_shipped.onnx")
     cfg = CFG | {"equal_quality_spp": [1, 16], "equal_quality_samples": 2, "mask_erosion": 1}
     jobs.ndr_equal_quality(inputs, outputs, cfg, 1)
 
@@ -187,8 +192,32 @@ def test_the_job_writes_every_spp_and_ndrs_scores_on_the_same_samples(tiny_split
     assert ndr["speedup_vs_training_spp"] == pytest.approx(
         train["ms_per_frame"] / ndr["ms_per_frame"]
     )
+    # Trained on importance-sampled shading: NDR's frame is that shading and the network;
+    # the shipped graph (its own, prefiltered shading) is timed beside it.
     assert ndr["ms_per_frame"] == pytest.approx(ndr["coarse_shading_ms"] + ndr["network_ms"])
+    assert ndr["shipped_graph_ms"] > 0
+    assert OnnxNetwork(outputs["graph"]).inputs == list(SHIPPED_INPUTS)
     assert open(outputs["figure"], "rb").read(4) == b"\x89PNG"
 
     with pytest.raises(ValueError, match="equal_quality_samples = 3"):
         jobs.ndr_equal_quality(inputs, outputs, cfg | {"equal_quality_samples": 3}, 1)
+
+
+def test_the_shipped_graph_computes_what_a_network_trained_on_prefiltered_data_sees(tmp_path):
+    """On ``coarse_shading: prefiltered`` data the one-graph NDR (its shading from the
+    sample's G-buffers and map) gives the network's ``I_R`` on the stored sample."""
+    cfg = CFG | {"coarse_shading": "prefiltered"}
+    files = {"dir": str(tmp_path / "t"), "manifest": str(tmp_path / "m.csv")}
+    files["lighting"] = str(tmp_path / "l.csv")
+    data.generate_split(cfg, "test", 1, files["dir"], files["manifest"], files["lighting"], 1)
+    test = NDRDataset.from_files(files, 0)  # the mask uneroded, as a renderer has it
+    torch.manual_seed(0)
+    model = NDRModel(VARIANTS["ndr"], widths=[4, 8], sh_hidden=8).eval()
+    scene = eq.scene_of(cfg, 0)
+    inputs = eq.shipped_inputs(cfg, model, scene, test[0])
+    graph = tmp_path / "shipped.onnx"
+    eq.export_shipped(cfg, model, inputs, str(graph))
+    shipped = OnnxNetwork(graph)(*[x.numpy() for x in inputs])
+    with torch.inference_mode():
+        stored = model({k: v[None] for k, v in test[0].items()})["I_R"].numpy()
+    assert np.abs(shipped - stored).max() <= 1e-3 * max(1.0, np.abs(stored).max())

@@ -163,6 +163,7 @@ rule ndr_equal_quality:
             category="NDR",
             labels={"figure": "equal quality"},
         ),
+        graph="results/ndr/onnx/ndr_shipped.onnx",
     log:
         "results/logs/ndr_equal_quality/ndr_equal_quality.log",
     benchmark:

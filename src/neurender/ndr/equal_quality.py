@@ -29,6 +29,7 @@ lighting and G-buffers are not counted.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Sequence
 from types import ModuleType
@@ -38,11 +39,14 @@ import pandas as pd
 import torch
 from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
-from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, render
+from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, environments, prefiltered, render
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import score
 from neurender.ndr.model import NDRModel, compose
 from neurender.ndr.objects import ProceduralObject
+from neurender.ndr.shipped import INPUTS as SHIPPED_INPUTS
+from neurender.ndr.shipped import ShippedNDR, gbuffer_groups
+from neurender.nn.inference import OnnxNetwork, export_onnx
 from neurender.plots import plt, save_figure
 from neurender.tables import tidy_rows
 from neurender.timing import timed
@@ -146,20 +150,55 @@ def score_sweep(
 
 
 @torch.no_grad()
+def shipped_inputs(
+    cfg: dict, model: NDRModel, scene: Scene, sample: dict[str, torch.Tensor]
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The shipped graph's inputs (:mod:`neurender.ndr.shipped`) of one test ``sample``
+    (a dataset item, ``(C, H, W)`` per group; read without mask erosion, the graph gives
+    the network's output on the stored sample exactly as a renderer's raw mask would) under
+    its scene's map: the G-buffers ``(1, C, H, W)``, the map's 5-band SH ``(1, 75)`` and its
+    prefiltered copies ``(1, L, h, 2h, 3)``, made as the data stage makes them for
+    ``prefiltered``."""
+    gbuffers = torch.cat([sample[g][None] for g in gbuffer_groups(model)], 1)
+    small = environments.resize_latlong(scene.environment, cfg["coarse_height"])
+    coefficients, maps = prefiltered.lighting(scene.environment, small)
+    return gbuffers.float(), coefficients.reshape(1, -1).float(), maps[None].float()
+
+
+def export_shipped(
+    cfg: dict, model: NDRModel, inputs: tuple[torch.Tensor, ...], path: str
+) -> float:
+    """Write ``model`` with the prefiltered coarse shading as one ONNX graph
+    (:class:`neurender.ndr.shipped.ShippedNDR`: G-buffers, SH and maps in, ``I_R`` out),
+    checked against PyTorch on ``inputs`` (a batch of two copies); the largest
+    difference."""
+    cpu = copy.deepcopy(model).cpu().eval()  # the model may stay on the GPU for its timing
+    shipped = ShippedNDR(cpu, cfg["camera_distance"], cfg["fov"], cfg["width"])
+    pair = tuple(torch.cat([t, t]) for t in inputs)  # a batch of one would fix the batch axis
+    return export_onnx(shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=SHIPPED_INPUTS)
+
+
 def network_milliseconds(
     cfg: dict,
     model: NDRModel,
     scenes: Sequence[Scene],
     test: NDRDataset,
     device: torch.device,
+    graph: str,
+    threads: int,
     repeats: int = EQUAL_QUALITY_REPEATS,
 ) -> dict[str, float]:
     """NDR's milliseconds per frame, means over ``scenes`` of per-sample medians:
     ``coarse_shading_ms`` (:func:`neurender.ndr.data.coarse_maps` from the map's lighting,
     made once per map and not counted), ``network_ms`` (``model`` on the sample of
-    ``test``, batch 1, on ``device``) and their sum ``ms_per_frame``."""
+    ``test``, batch 1, on ``device``), ``shipped_graph_ms`` (the one-graph NDR exported to
+    ``graph`` by :func:`export_shipped`, ONNX Runtime on ``threads`` threads) and
+    ``ms_per_frame``, NDR's frame: the shipped graph when the data's coarse shading is
+    ``prefiltered`` (the graph computes exactly what the network was trained on), else
+    the importance-sampled shading plus the network (the graph's shading would not be the
+    training input; its time is then for comparison only)."""
     view = render.camera(cfg["camera_distance"], cfg["fov"])
-    coarse, network = [], []
+    coarse, network, shipped = [], [], []
     for scene in scenes:
         g = render.g_buffers(scene.obj, view, cfg["width"])
         lighting = data.coarse_lighting(cfg, scene.environment)
@@ -175,10 +214,20 @@ def network_milliseconds(
             warmup=1,
         )
         coarse.append(s)
-        batch = {k: v[None].to(device) for k, v in test[scene.index].items()}
+        sample = test[scene.index]
+        batch = {k: v[None].to(device) for k, v in sample.items()}
         network.append(timed(model, batch, repeats=repeats, warmup=1)[1])
+        inputs = shipped_inputs(cfg, model, scene, sample)
+        if not shipped:
+            export_shipped(cfg, model, inputs, graph)
+            session = OnnxNetwork(graph, threads)
+        arrays = [x.numpy() for x in inputs]
+        shipped.append(timed(session, *arrays, repeats=repeats, warmup=1)[1])
     ms = {"coarse_shading_ms": 1e3 * float(np.mean(coarse))}
     ms["network_ms"] = 1e3 * float(np.mean(network))
+    ms["shipped_graph_ms"] = 1e3 * float(np.mean(shipped))
+    if cfg["coarse_shading"] == "prefiltered":
+        return {**ms, "ms_per_frame": ms["shipped_graph_ms"]}
     return {**ms, "ms_per_frame": ms["coarse_shading_ms"] + ms["network_ms"]}
 
 

@@ -149,7 +149,8 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     and the training ``spp`` on the first ``equal_quality_samples`` test samples
     (:mod:`neurender.ndr.equal_quality`): NDR's DSSIM from the evaluation's per-sample
     ``samples``, Mitsuba's against the test split's references; Mitsuba and NDR timed on
-    ``threads`` threads in this process. The table and the figure."""
+    ``threads`` threads in this process. The table, the figure and the shipped one-graph
+    NDR (``graph``: coarse shading and network in one ONNX file)."""
     mi, dr = require_mitsuba(params["device"])
     dr.set_thread_count(threads)
     device = resolve_device(params["device"], threads)
@@ -166,7 +167,9 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     per_sample = io.read_csv(inputs["samples"], ["dataset", "model", "sample", "metric", "value"])
     target = equal_quality.network_dssim(per_sample, range(count))
     model = load_model(inputs["checkpoint"], device)
-    network = equal_quality.network_milliseconds(params, model, scenes, test, device)
+    network = equal_quality.network_milliseconds(
+        params, model, scenes, test, device, outputs["graph"], threads
+    )
     io.write_csv(outputs["table"], equal_quality.table(scores, target, network, params["spp"]))
     equal_quality.quality_figure(scores, target, network, params["spp"], outputs["figure"])
 
