@@ -155,7 +155,7 @@ def frame_scores(
                 scores.radiance(material, c, positions, light, raster.eye, cfg["glossy_exponent"])
                 for c in (data.targets(material)[f], pred[f])
             )
-            ssim = scores.compare_images(raster.shade(gt), raster.shade(pr), mask)["ssim"]
+            ssim = scores.image_ssim(raster.shade(gt), raster.shade(pr), mask)
             metrics = out.setdefault(model, {})
             metrics.setdefault(f"ssim_{material}", []).append(ssim)
             metrics.setdefault(f"rel_l1_radiance_{material}", []).append(relative_l1(pr, gt))
