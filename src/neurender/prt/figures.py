@@ -225,20 +225,24 @@ def unseen_figure(name: str, table: pd.DataFrame, out: str) -> None:
         for col, family in enumerate(families):
             ax = axes[row, col]
             sel = table[(table.family == family) & (table.metric == f"rel_l1_radiance_{material}")]
-            for i, model in enumerate(models):
+            for i, model in enumerate(models):  # a model's colour and marker in every panel
                 line = sel[sel.model == model].sort_values("strength")
                 if len(line):
-                    marker = "os^vDx*"[i % 7]
-                    ax.semilogy(line.strength, line.value, marker=marker, ms=3, label=model)
+                    style = {"color": f"C{i}", "marker": "os^vDx*"[i % 7], "ms": 3}
+                    ax.semilogy(line.strength, line.value, label=model, **style)
             ax.set_title(f"{family} ({material})", fontsize=8)
             ax.tick_params(labelsize=7)
             if row == len(MATERIALS) - 1:
                 ax.set_xlabel("strength", fontsize=8)
             if col == 0:
                 ax.set_ylabel("rel. L1 of radiance", fontsize=8)
-    axes[0, 0].legend(fontsize=6)
-    fig.suptitle(f"DeepPRT {name}: unseen deformations of the mean shape", fontsize=9)
-    fig.tight_layout()
+    handles = {}
+    for ax in axes.flat:  # MoMoPRT is in some panels only: one legend for the figure
+        handles.update(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
+    fig.legend(handles.values(), handles.keys(), loc="upper right", fontsize=7, ncol=len(handles))
+    title = f"DeepPRT {name}: unseen deformations of the mean shape"
+    fig.suptitle(title, x=0.01, ha="left", fontsize=9)
+    fig.tight_layout(rect=(0, 0, 1, 0.93))
     save_figure(fig, out)
 
 
