@@ -227,3 +227,13 @@ def test_ten_percent_above_the_better_baseline_at_one_strength_is_allowed_but_no
         assert by_kind[(True, False)].met is expect
         assert np.isclose(by_kind[(True, False)].measured, over)
         assert by_kind[(False, True)].met and by_kind[(False, False)].met
+
+
+def test_the_summary_holds_every_objects_rows(head, tmp_path):
+    table = io.read_csv(head / "unseen.csv")
+    other = tmp_path / "other.csv"
+    io.write_csv(other, table.assign(dataset="other"))
+    out = tmp_path / "all.csv"
+    jobs.prt_unseen_summary({"csvs": [str(head / "unseen.csv"), str(other)]}, {"csv": out}, {}, 1)
+    merged = io.read_csv(out)
+    assert len(merged) == 2 * len(table) and set(merged.dataset) == {"head", "other"}

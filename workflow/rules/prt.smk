@@ -469,6 +469,31 @@ rule prt_unseen:
         "../scripts/prt_unseen.py"
 
 
+rule prt_unseen_summary:
+    input:
+        csvs=expand("results/prt/{object}/unseen.csv", object=PRT_OBJECTS),
+    output:
+        csv=report(
+            "results/prt/unseen.csv",
+            category="DeepPRT",
+            subcategory="unseen deformations",
+            labels={"table": "unseen deformations"},
+        ),
+    log:
+        "results/logs/prt_unseen_summary/prt_unseen_summary.log",
+    benchmark:
+        "results/benchmarks/prt_unseen_summary/prt_unseen_summary.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_unseen_summary"),
+    params:
+        cfg={},
+    script:
+        "../scripts/prt_unseen_summary.py"
+
+
 rule prt_relight:
     input:
         unpack(prt_test_files),

@@ -456,6 +456,13 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     figures.unseen_figure(name, table, outputs["figure"])
 
 
+def prt_unseen_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every object's unseen-deformation rows in one table (what the targets read:
+    :func:`neurender.prt.unseen_scores.targets`)."""
+    tables = [io.read_csv(p) for p in inputs["csvs"]]
+    io.write_csv(outputs["csv"], pd.concat(tables, ignore_index=True))
+
+
 # ---------------------------------------------------------------- report
 
 

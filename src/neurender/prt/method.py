@@ -157,12 +157,12 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
 
 
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
-    """The tables (and one unseen-deformation table per object), figures (four per
-    object, one per experiment) and viewers (one per object) of DeepPRT's report section."""
+    """The tables, figures (four per object, one per experiment) and viewers (one per
+    object) of DeepPRT's report section."""
     objects = list(config["prt"]["objects"])
     experiments = EXPERIMENTS if config["prt"]["experiments"] else ()
     tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
-    tables += ("benchmark",)
+    tables += ("benchmark", "unseen")
     kinds = ("prediction", "unseen", "frames", "meshes")
     fixed = ["loss_curves", "equal_quality", "light_probes"]
     if len(config["prt"]["probes"]) >= 2:
@@ -170,8 +170,7 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     figures = [f"{o}_{kind}" for o in objects for kind in kinds] + list(experiments) + fixed
     return ReportInputs(
         tables=[f"results/prt/{t}.csv" for t in tables]
-        + [f"results/prt/{x}/experiment.csv" for x in experiments]
-        + [f"results/prt/{o}/unseen.csv" for o in objects],
+        + [f"results/prt/{x}/experiment.csv" for x in experiments],
         figures=[f"results/prt/figures/{name}.png" for name in figures],
         viewers=[f"results/prt/viewers/{o}.json" for o in objects],
     )
@@ -207,6 +206,7 @@ METHOD = Method(
         "prt_model_summary": Rule(MODELS),
         "prt_experiment": Rule(MODELS),
         "prt_unseen": Rule(MODELS, _unseen),
+        "prt_unseen_summary": Rule(MODELS),
         "prt_relight": Rule(MODELS),
         "prt_viewer": Rule(MODELS, _viewer),
     },
