@@ -202,26 +202,25 @@ def targets(table: pd.DataFrame, shipped: str, paper: str | None = None) -> list
             top = wide.groupby(level="family").tail(1).droplevel("strength")
             top_ratio = top[shipped] / top[[UNSHADOWED, STATIC]].min(axis=1)
             ratio = wide[shipped] / base.min(axis=1)
-            subject = f"{dataset} {material}"
             summaries = {"averaged over strengths": mean_ratio, "at the strongest": top_ratio}
             for where, worst in summaries.items():
                 family = worst.idxmax()
                 check = (
-                    f"{shipped} rel. L1 of radiance {where} / the better baseline's < {below:g} "
-                    f"on every unseen family (worst: {family})"
+                    f"{shipped} {metric} {where} / the better baseline's < {below:g} on every "
+                    f"unseen family (worst: {family})"
                 )
-                rows.append(Target(subject, check, float(worst.max()), bool(worst.max() < below)))
+                rows.append(Target(dataset, check, float(worst.max()), bool(worst.max() < below)))
             family, strength = ratio.idxmax()
             check = (
-                f"{shipped} rel. L1 of radiance / the better baseline's <= {at_most:g} at every "
-                f"unseen strength (worst: {family} at {strength:g})"
+                f"{shipped} {metric} / the better baseline's <= {at_most:g} at every unseen "
+                f"strength (worst: {family} at {strength:g})"
             )
-            rows.append(Target(subject, check, float(ratio.max()), bool(ratio.max() <= at_most)))
+            rows.append(Target(dataset, check, float(ratio.max()), bool(ratio.max() <= at_most)))
             if paper and paper != shipped and paper in wide:
                 value = float(wide[shipped].mean() / wide[paper].mean())
                 check = (
-                    f"{shipped} / {paper} rel. L1 of radiance, mean over unseen families and "
-                    f"strengths < {paper_ratio:g}"
+                    f"{shipped} / {paper} {metric}, mean over unseen families and strengths "
+                    f"< {paper_ratio:g}"
                 )
-                rows.append(Target(subject, check, value, value < paper_ratio))
+                rows.append(Target(dataset, check, value, value < paper_ratio))
     return rows
