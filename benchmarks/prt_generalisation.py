@@ -45,7 +45,7 @@ import torch
 
 from neurender import io, lights, sh
 from neurender.plan import load_config
-from neurender.prt import frames, jobs, render, scores, transfer, unseen
+from neurender.prt import frames, jobs, unseen, unseen_scores
 from neurender.prt.local_model import LocalConfig
 from neurender.prt.model import DeepPRT, raw_inputs
 from neurender.prt.training import train_deepprt, train_local
@@ -53,57 +53,29 @@ from neurender.prt.training import train_deepprt, train_local
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def traced(positions, directions, cfg, offset, name, split, threads=1) -> frames.Split:
-    """A split of frames ``(F, n, n, 3)`` with their diffuse transfer (the pipeline's seeds)."""
-    normals, diffuse = [], []
-    for f, p in enumerate(positions):
-        nrm, d, _, _ = transfer.sample_frame(
-            p, directions, cfg, offset, None, threads, name, split, f, directions
-        )
-        normals.append(nrm)
-        diffuse.append(d)
-    n = positions.shape[1]
-    return frames.Split(
-        np.asarray(positions, np.float32),
-        np.stack(normals).astype(np.float32),
-        np.stack(diffuse).astype(np.float32),
-        np.zeros((len(positions), n, n, 3, 1), np.float32),
-        np.zeros((len(positions), 1), np.float32),
-    )
-
-
 def predictions(
     data: frames.Split, paper: DeepPRT, local, mean_split: frames.Split, n_bands: int
-) -> dict[str, np.ndarray]:
-    """``(F, K, n, n)`` diffuse transfer of every model and baseline."""
+) -> dict[tuple[str, str], np.ndarray]:
+    """``(model, "diffuse") -> (F, K, n, n)`` diffuse transfer of every model and baseline."""
     with torch.no_grad():
         x = torch.from_numpy(raw_inputs(data))
         shadowing = np.concatenate([local(x[i : i + 8]).numpy() for i in range(0, len(x), 8)])
     return {
-        "paper": paper.predict(data),
-        "shadowing": shadowing,
-        "unshadowed": unseen.unshadowed_baseline(data.positions, n_bands),
-        "static": unseen.static_baseline(
-            np.moveaxis(mean_split.diffuse[0], -1, 0), len(data.positions)
+        ("paper", "diffuse"): paper.predict(data),
+        ("shadowing", "diffuse"): shadowing,
+        ("unshadowed", "diffuse"): unseen.unshadowed_baseline(data.positions, n_bands),
+        ("static", "diffuse"): unseen.static_baseline(
+            mean_split.targets("diffuse")[0], len(data.positions)
         ),
     }
 
 
-def frame_scores(split: frames.Split, pred: np.ndarray, light: np.ndarray, res: int) -> dict:
-    """Per-frame relative L1 of diffuse radiance and diffuse SSIM, ``(F,)`` each."""
-    n = split.positions.shape[1]
-    rel, ssim = [], []
-    for f in range(len(pred)):
-        gt_t = split.diffuse[f].reshape(n * n, -1)
-        pr_t = np.moveaxis(pred[f], 0, -1).reshape(n * n, -1)
-        gt_r, pr_r = render.diffuse_radiance(gt_t, light), render.diffuse_radiance(pr_t, light)
-        rel.append(float(np.abs(pr_r - gt_r).sum() / np.abs(gt_r).sum()))
-        ssim.append(
-            scores.diffuse_ssim(
-                split.positions[f], np.moveaxis(pred[f], 0, -1), split.diffuse[f], res, light
-            )
-        )
-    return {"rel_l1_diffuse": np.array(rel), "ssim_diffuse": np.array(ssim)}
+def frame_scores(split: frames.Split, preds: dict, light: np.ndarray, cfg: dict) -> dict:
+    """``model -> metric -> (F,)``: relative L1 of diffuse radiance and diffuse SSIM
+    (:func:`neurender.prt.unseen_scores.frame_scores`, under this study's names)."""
+    values = unseen_scores.frame_scores(split, preds, light, cfg)
+    names = {"rel_l1_radiance_diffuse": "rel_l1_diffuse", "ssim_diffuse": "ssim_diffuse"}
+    return {m: {names[k]: v for k, v in metrics.items()} for m, metrics in values.items()}
 
 
 def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
@@ -175,7 +147,6 @@ def main() -> None:
     train_cfg = {**model_cfg, "seed": config["seed"], "epochs": args.epochs, "device": "cpu"}
     image = lights.procedural_probe(prt["light"], prt["probe_height"])
     light = sh.project_latlong(image, prt["n_bands"])
-    res = model_cfg["render_resolution"]
     rows, seconds = [], {}
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -204,7 +175,9 @@ def main() -> None:
                 pos = seq[f"{s}_positions"]
                 directions = prt["reference_directions" if s == "test" else "directions"]
                 offset = frames.ray_offset(pos[0], prt["ray_offset"])
-                split[s] = traced(pos, directions, transfer_cfg, offset, name, s)
+                split[s] = unseen_scores.traced(
+                    pos, directions, transfer_cfg, offset, None, 1, name, s
+                )
             seconds[f"{name}_data"] = time.perf_counter() - start
             print(f"{name}: data in {seconds[f'{name}_data']:.0f} s", flush=True)
 
@@ -212,20 +185,18 @@ def main() -> None:
             mean = seq["train_positions"].astype(np.float64).mean(0)
             ref = prt["reference_directions"]
             offset = frames.ray_offset(mean, prt["ray_offset"])
-            mean_split = traced(mean[None], ref, transfer_cfg, offset, name, "unseen_mean")
+            mean_split = unseen_scores.traced(
+                mean[None], ref, transfer_cfg, offset, None, 1, name, "unseen_mean"
+            )
             families = unseen.families_for(len(gim["deltas"]) > 0)
-            unseen_splits = {}
-            for family in families:
-                for strength in args.strengths:
-                    pos = np.stack(
-                        [
-                            unseen.deform(mean, family, strength, config["seed"], i, gim["deltas"])
-                            for i in range(args.per_strength)
-                        ]
-                    )
-                    unseen_splits[(family, strength)] = traced(
-                        pos, ref, transfer_cfg, offset, name, f"unseen_{family}_{strength}"
-                    )
+            unseen_splits = {
+                (case.family, case.strength): unseen_scores.traced(
+                    case.positions, ref, transfer_cfg, offset, None, 1, name, case.tag
+                )
+                for case in unseen_scores.cases(
+                    mean, families, args.strengths, args.per_strength, config["seed"], gim["deltas"]
+                )
+            }
             seconds[f"{name}_unseen_data"] = time.perf_counter() - start
             print(f"{name}: unseen data in {seconds[f'{name}_unseen_data']:.0f} s", flush=True)
 
@@ -257,8 +228,8 @@ def main() -> None:
             cases = {("test", 0.0): split["test"], **unseen_splits}
             for (family, strength), data in cases.items():
                 preds = predictions(data, paper, local, mean_split, prt["n_bands"])
-                for model, pred in preds.items():
-                    add(name, model, family, strength, frame_scores(data, pred, light, res))
+                for model, values in frame_scores(data, preds, light, model_cfg).items():
+                    add(name, model, family, strength, values)
             seconds[f"{name}_score"] = time.perf_counter() - start
             table = pd.DataFrame(rows)
             io.write_csv(out, table)  # after every object: a partial run keeps what it measured

@@ -429,6 +429,71 @@ rule prt_experiment:
         "../scripts/prt_experiment.py"
 
 
+rule prt_unseen:
+    input:
+        unpack(prt_unseen_models),
+        gim="results/prt/{object}/geometry_image.npz",
+        seq="results/prt/{object}/sequence.npz",
+        light=PRT_LIGHT,
+    output:
+        csv=report(
+            "results/prt/{object}/unseen.csv",
+            category="DeepPRT",
+            subcategory="unseen deformations",
+            labels={"object": "{object}", "table": "unseen deformations"},
+        ),
+        figure=report(
+            "results/prt/figures/{object}_unseen.png",
+            category="DeepPRT",
+            subcategory="unseen deformations",
+            labels={
+                "object": "{object}",
+                "figure": "error against strength (Fig. 6 generalised)",
+            },
+        ),
+    log:
+        "results/logs/prt_unseen/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_unseen/{object}.tsv"
+    wildcard_constraints:
+        object="|".join(PRT_OBJECTS),
+    conda:
+        "../envs/neurender.yaml"
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("prt_unseen"),
+        embree=1,
+    params:
+        cfg=prt_unseen_params,
+    script:
+        "../scripts/prt_unseen.py"
+
+
+rule prt_unseen_summary:
+    input:
+        csvs=expand("results/prt/{object}/unseen.csv", object=PRT_OBJECTS),
+    output:
+        csv=report(
+            "results/prt/unseen.csv",
+            category="DeepPRT",
+            subcategory="unseen deformations",
+            labels={"table": "unseen deformations"},
+        ),
+    log:
+        "results/logs/prt_unseen_summary/prt_unseen_summary.log",
+    benchmark:
+        "results/benchmarks/prt_unseen_summary/prt_unseen_summary.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_unseen_summary"),
+    params:
+        cfg={},
+    script:
+        "../scripts/prt_unseen_summary.py"
+
+
 rule prt_relight:
     input:
         unpack(prt_test_files),

@@ -208,6 +208,44 @@ def experiment_figure(name: str, table: pd.DataFrame, label: str, out: str) -> N
     save_figure(fig, out)
 
 
+def unseen_figure(name: str, table: pd.DataFrame, out: str) -> None:
+    """Paper Fig. 6 generalised: relative L1 of radiance against deformation strength,
+    one panel per unseen family (columns) and material (rows), one line per model
+    (:mod:`neurender.prt.unseen_scores`)."""
+    families = list(dict.fromkeys(table.family))
+    models = list(dict.fromkeys(table.model))
+    fig, axes = plt.subplots(
+        len(MATERIALS),
+        len(families),
+        figsize=(2.6 * len(families), 2.4 * len(MATERIALS)),
+        squeeze=False,
+        sharex=True,
+    )
+    for row, material in enumerate(MATERIALS):
+        for col, family in enumerate(families):
+            ax = axes[row, col]
+            sel = table[(table.family == family) & (table.metric == f"rel_l1_radiance_{material}")]
+            for i, model in enumerate(models):  # a model's colour and marker in every panel
+                line = sel[sel.model == model].sort_values("strength")
+                if len(line):
+                    style = {"color": f"C{i}", "marker": "os^vDx*"[i % 7], "ms": 3}
+                    ax.semilogy(line.strength, line.value, label=model, **style)
+            ax.set_title(f"{family} ({material})", fontsize=8)
+            ax.tick_params(labelsize=7)
+            if row == len(MATERIALS) - 1:
+                ax.set_xlabel("strength", fontsize=8)
+            if col == 0:
+                ax.set_ylabel("rel. L1 of radiance", fontsize=8)
+    handles = {}
+    for ax in axes.flat:  # MoMoPRT is in some panels only: one legend for the figure
+        handles.update(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
+    fig.legend(handles.values(), handles.keys(), loc="upper right", fontsize=7, ncol=len(handles))
+    title = f"DeepPRT {name}: unseen deformations of the mean shape"
+    fig.suptitle(title, x=0.01, ha="left", fontsize=9)
+    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    save_figure(fig, out)
+
+
 def relight_figure(name: str, blends: list[tuple[float, np.ndarray, np.ndarray, float]], out: str):
     """Paper Fig. 2: ground truth over DeepPRT for each ``(blend weight, ground-truth image
     (3, H, W), prediction (3, H, W), SSIM)`` of one test frame under blended probes."""

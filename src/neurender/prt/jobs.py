@@ -25,6 +25,7 @@ from neurender.deployment import deployment_table, read_deployment
 from neurender.prt import (
     MATERIALS,
     SPLITS,
+    VARIANTS,
     animations,
     figures,
     frames,
@@ -32,6 +33,9 @@ from neurender.prt import (
     objects,
     summary,
     transfer,
+    unseen,
+    unseen_scores,
+    unshadowed,
 )
 from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
@@ -395,6 +399,68 @@ def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     )
     figures.relight_figure(params["object"], blends, outputs["figure"])
     io.write_csv(outputs["csv"], pd.DataFrame(rows))
+
+
+def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The unseen-deformation benchmark of one object (:mod:`neurender.prt.unseen_scores`):
+    every family of :func:`neurender.prt.unseen.families_for` at every strength, its
+    ground truth traced here, scored for each DeepPRT variant, MoMoPRT (where it can
+    predict: on positions for every family, on blendshape weights for ``extrapolation``)
+    and the unshadowed and static baselines; the table and the error-against-strength
+    figure (paper Fig. 6 generalised)."""
+    name, n_bands = params["object"], params["n_bands"]
+    gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
+    light = _light(inputs["light"], n_bands)
+    variant_files = [(v, m) for v in params["variants"] for m in MATERIALS]  # expand()'s order
+    nets = {
+        (VARIANTS[v], m): DeepPRT(ckpt, onnx, params["device"], threads)
+        for (v, m), ckpt, onnx in zip(variant_files, inputs["deepprt"], inputs["onnx"], strict=True)
+    }
+    linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
+    mean = seq["train_positions"].astype(np.float64).mean(0)
+    deltas = gim["deltas"]
+    families = unseen.families_for(len(deltas) > 0)
+    # Blendshape weights are the shape parameters only where they drive the sequence.
+    weights = seq["train_params"]
+    mean_params = weights.mean(0) if len(deltas) and weights.shape[1] == len(deltas) else None
+    directions = params["reference_directions"]
+    offset = frames.ray_offset(mean, params["ray_offset"])
+    trace = {"seed": params["seed"], "direction_sets": params["direction_sets"], "n_bands": n_bands}
+    mean_split = unseen_scores.traced(
+        mean[None], directions, trace, offset, light, threads, name, "unseen_mean"
+    )
+    coeffs = unshadowed.glossy_polynomial(light)
+    rows = []
+    cases = unseen_scores.cases(
+        mean,
+        families,
+        params["unseen_strengths"],
+        params["unseen_frames"],
+        params["seed"],
+        deltas,
+        mean_params,
+    )
+    for case in tqdm(cases, desc=f"{name} unseen", mininterval=2.0):
+        data = unseen_scores.traced(
+            case.positions, directions, trace, offset, light, threads, name, case.tag, case.params
+        )
+        preds = {key: net.predict(data) for key, net in nets.items()}
+        for material, model in linear.items():
+            if model.basis.size or case.params is not None:  # positions, or its weights
+                preds[("MoMoPRT", material)] = model.predict(data)
+        preds |= unseen_scores.baselines(data, mean_split, n_bands, coeffs)
+        values = unseen_scores.frame_scores(data, preds, light, params)
+        rows += unseen_scores.case_rows(name, case, values)
+    table = pd.DataFrame(rows)
+    io.write_csv(outputs["csv"], table)
+    figures.unseen_figure(name, table, outputs["figure"])
+
+
+def prt_unseen_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every object's unseen-deformation rows in one table (what the targets read:
+    :func:`neurender.prt.unseen_scores.targets`)."""
+    tables = [io.read_csv(p) for p in inputs["csvs"]]
+    io.write_csv(outputs["csv"], pd.concat(tables, ignore_index=True))
 
 
 # ---------------------------------------------------------------- report

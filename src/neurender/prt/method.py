@@ -19,6 +19,9 @@ from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 DATA, MODELS = "DeepPRT data", "DeepPRT models"
 #: Transfer coefficients per SH coefficient: 1 (diffuse) or 3 (glossy, per colour).
 GLOSSY_CHANNELS = 3
+#: Unseen-deformation families of an object with blendshapes, the most
+#: (:data:`neurender.prt.unseen.FAMILIES`; not imported: it is heavy).
+UNSEEN_FAMILIES = 6
 
 
 def problems(config: Mapping[str, Any]) -> Iterator[str]:
@@ -113,6 +116,17 @@ def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return (rays + renders) / 1e6, (frames["val"] + frames["test"]) * n * n * 60 / 1e6
 
 
+def _unseen(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The unseen frames' reference rays (every family, strength and frame, and the mean
+    shape) and their renders (each of up to 5 models and 2 materials, and the truth)."""
+    prt, pm = cfg["prt"], cfg["prt_model"]
+    n = prt["resolution"]
+    frames = UNSEEN_FAMILIES * len(pm["unseen_strengths"]) * pm["unseen_frames"]
+    rays = (frames + 1) * n * n * prt["reference_directions"] / 2
+    renders = frames * 12 * pm["render_resolution"] ** 2
+    return (rays + renders) / 1e6, pm["unseen_frames"] * n * n * 60 / 1e6
+
+
 def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """The test split read, one frame predicted."""
     n, frames = cfg["prt"]["resolution"], cfg["prt"]["frames"]
@@ -143,13 +157,13 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
 
 
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
-    """The tables, figures (three per object, one per experiment) and viewers (one per
+    """The tables, figures (four per object, one per experiment) and viewers (one per
     object) of DeepPRT's report section."""
     objects = list(config["prt"]["objects"])
     experiments = EXPERIMENTS if config["prt"]["experiments"] else ()
     tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
-    tables += ("benchmark",)
-    kinds = ("prediction", "frames", "meshes")
+    tables += ("benchmark", "unseen")
+    kinds = ("prediction", "unseen", "frames", "meshes")
     fixed = ["loss_curves", "equal_quality", "light_probes"]
     if len(config["prt"]["probes"]) >= 2:
         fixed.append(f"{objects[0]}_relight")
@@ -191,6 +205,8 @@ METHOD = Method(
         "prt_evaluate": Rule(MODELS, _evaluate),
         "prt_model_summary": Rule(MODELS),
         "prt_experiment": Rule(MODELS),
+        "prt_unseen": Rule(MODELS, _unseen),
+        "prt_unseen_summary": Rule(MODELS),
         "prt_relight": Rule(MODELS),
         "prt_viewer": Rule(MODELS, _viewer),
     },

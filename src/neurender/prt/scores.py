@@ -40,16 +40,27 @@ def radiance(
     return render.glossy_radiance(c.reshape(n, n, 3, -1), positions, eye, exponent)
 
 
+def _tensors(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[torch.Tensor, ...]:
+    """``(1, C, H, W)`` images divided by the ground truth's maximum (the prediction
+    clamped at 0) and the ``(1, 1, H, W)`` mask, float64."""
+    scale = max(float(gt.max()), 1e-12)
+    a = torch.from_numpy(np.ascontiguousarray(gt[None] / scale)).double()
+    b = torch.from_numpy(np.ascontiguousarray(pred[None] / scale)).double().clamp(0, None)
+    return a, b, torch.from_numpy(mask[None]).double()
+
+
+def image_ssim(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> float:
+    """The SSIM of :func:`compare_images` alone (one SSIM evaluation, no maps)."""
+    return float(metrics.ssim(*_tensors(gt, pred, mask)))
+
+
 def compare_images(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
     """SSIM and L2-RGB of two ``(3, H, W)`` radiance images inside ``mask`` ``(1, H, W)``.
 
     Both are divided by the ground truth's maximum. Returns the scores and the SSIM and L1
     maps ``(H, W)`` (for Fig. 7).
     """
-    scale = max(float(gt.max()), 1e-12)
-    a = torch.from_numpy(np.ascontiguousarray(gt[None] / scale)).double()
-    b = torch.from_numpy(np.ascontiguousarray(pred[None] / scale)).double().clamp(0, None)
-    m = torch.from_numpy(mask[None]).double()
+    a, b, m = _tensors(gt, pred, mask)
     ssim_map = metrics.ssim_map(a, b)
     return {
         "ssim": float(metrics.ssim(a, b, m)),

@@ -153,10 +153,18 @@ def deform(
         return (centre + rot.apply(flat - centre)).reshape(mean.shape)
     if deltas is None or len(deltas) == 0:
         raise ValueError("family 'extrapolation' needs the object's blendshapes (deltas)")
-    direction = rng.uniform(-1.0, 1.0, len(deltas))
-    direction /= max(float(np.abs(direction).max()), 1e-12)
-    step = 1.5 * strength * direction
+    step = extrapolation_step(strength, seed, index, len(deltas))
     return mean + np.einsum("k,kijc->ijc", step, np.asarray(deltas, np.float64))
+
+
+def extrapolation_step(strength: float, seed: int, index: int, count: int) -> np.ndarray:
+    """``(count,)`` blendshape weights that the ``extrapolation`` frame ``index`` adds to
+    the mean training weights (its shape parameters are ``mean weights + step``): a
+    random direction scaled to ``1.5 x strength`` in its largest weight."""
+    rng = np.random.default_rng(stable_seed(seed, "extrapolation", index))
+    direction = rng.uniform(-1.0, 1.0, count)
+    direction /= max(float(np.abs(direction).max()), 1e-12)
+    return 1.5 * strength * direction
 
 
 def families_for(has_blendshapes: bool) -> tuple[str, ...]:
@@ -168,6 +176,14 @@ def unshadowed_baseline(positions: np.ndarray, n_bands: int) -> np.ndarray:
     """``(F, K, n, n)`` unshadowed diffuse transfer of frames ``(F, n, n, 3)`` (the normals
     of their grid meshes, as the ground truth's)."""
     t = np.stack([unshadowed.diffuse(grid_normals(p), n_bands) for p in positions])
+    return np.ascontiguousarray(np.moveaxis(t, -1, 1), np.float32)
+
+
+def unshadowed_glossy_baseline(positions: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """``(F, 3 K, n, n)`` unshadowed glossy transferred radiance of frames ``(F, n, n, 3)``
+    under the light of :func:`neurender.prt.unshadowed.glossy_polynomial`'s ``coeffs``
+    (colour-major, as :meth:`neurender.prt.frames.Split.targets`)."""
+    t = np.stack([unshadowed.glossy(grid_normals(p), coeffs) for p in positions])
     return np.ascontiguousarray(np.moveaxis(t, -1, 1), np.float32)
 
 

@@ -110,6 +110,27 @@ def prt_model_summary_params():
     )
 
 
+def prt_unseen_params(wildcards):
+    """The benchmark's sizes, its ground truth's keys and the scores' render keys."""
+    keys = PRT_TRANSFER_KEYS + ("reference_directions",)
+    model = ("render_resolution", "glossy_exponent", "variants")
+    model += ("unseen_strengths", "unseen_frames")
+    return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
+
+
+def prt_unseen_models(wildcards):
+    """Every variant's network files (variant-major, then material: the job's order) and
+    MoMoPRT's fits, of one object."""
+    base = f"results/prt/{wildcards.object}"
+    variants = config["prt_model"]["variants"]
+    pairs = [(v, m) for v in variants for m in PRT_MATERIALS]
+    return {
+        "deepprt": [f"{base}/variants/{v}_{m}.pt" for v, m in pairs],
+        "onnx": [f"{base}/variants/{v}_{m}.onnx" for v, m in pairs],
+        "momoprt": [f"{base}/momoprt_{m}.npz" for m in PRT_MATERIALS],
+    }
+
+
 def prt_test_frame_params(wildcards):
     """The section 4.2.2 experiments and the relighting figure."""
     return prt_params(
