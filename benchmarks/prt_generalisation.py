@@ -97,7 +97,7 @@ def frame_scores(split: frames.Split, pred: np.ndarray, light: np.ndarray, res: 
         gt_t = split.diffuse[f].reshape(n * n, -1)
         pr_t = np.moveaxis(pred[f], 0, -1).reshape(n * n, -1)
         gt_r, pr_r = render.diffuse_radiance(gt_t, light), render.diffuse_radiance(pr_t, light)
-        rel.append(float(np.abs(pr_r - gt_r).sum() / np.abs(gt_r).sum()))
+        rel.append(scores.relative_l1(pr_r, gt_r))
         ssim.append(
             scores.diffuse_ssim(
                 split.positions[f], np.moveaxis(pred[f], 0, -1), split.diffuse[f], res, light
