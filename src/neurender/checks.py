@@ -1,7 +1,8 @@
 """The sentences config rules are made of, shared by every method's checks
 (``<package>/method.py``'s ``problems``): ranges, perfect squares, powers of two, sizes a
-U-Net can halve, names that must be built in or given by the user, a choice among a list. Each yields one
-sentence per broken rule, naming the key, its value and what was expected.
+U-Net can halve, names that must be built in or given by the user, a value that must be
+one of another key's. Each yields one sentence per broken rule, naming the key, its value
+and what was expected.
 """
 
 from __future__ import annotations

@@ -352,6 +352,11 @@ rule prt_model_summary:
         checkpoints=prt_variant_files("pt", PRT_OBJECTS),
         onnx=prt_variant_files("onnx", PRT_OBJECTS),
         losses=prt_variant_files("loss.csv", PRT_OBJECTS),
+        shipped=expand(
+            "results/prt/{object}/deepprt_{material}.onnx",
+            object=PRT_OBJECTS,
+            material=PRT_MATERIALS,
+        ),
         frames=expand(
             "results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS
         ),

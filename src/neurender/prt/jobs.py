@@ -25,6 +25,7 @@ from neurender.deployment import deployment_table, read_deployment
 from neurender.prt import (
     MATERIALS,
     SPLITS,
+    VARIANTS,
     animations,
     figures,
     frames,
@@ -32,7 +33,6 @@ from neurender.prt import (
     objects,
     summary,
     transfer,
-    VARIANTS,
 )
 from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
@@ -266,9 +266,7 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     common = (threads, outputs["checkpoint"], outputs["loss"])
     tensorboard = outputs.get("tensorboard")
     if params["variant"] == "paper":
-        train_deepprt(
-            train_split, val_split, material, params, *common, data_key, tensorboard
-        )
+        train_deepprt(train_split, val_split, material, params, *common, data_key, tensorboard)
     elif params["variant"] == "shadowing":
         local_cfg = LocalConfig(
             n_bands=params["n_bands"],
@@ -392,8 +390,8 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
-    too), every variant's compression rows and loss curves, the equal-quality figure, and
-    the targets of the shipped variant (``params["shipped"]``)."""
+    too), every variant's compression rows and loss curves, the shipped files' sizes, the
+    equal-quality figure, and the targets of the shipped variant (``params["shipped"]``)."""
     names, variants = params["objects"], params["variants"]
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
@@ -410,9 +408,13 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
         params["resolution"],
         params["n_bands"],
     )
-    io.write_csv(outputs["compression"], compression)
-    experiments = [io.read_csv(p) for p in inputs["experiments"]]
     shipped = VARIANTS[params["shipped"]]
+    shipped_files = dict(
+        zip([(o, m) for o in names for m in MATERIALS], inputs["shipped"], strict=True)
+    )
+    compression = pd.concat([compression, summary.shipped_rows(shipped_files, shipped)])
+    io.write_csv(outputs["compression"], compression.reset_index(drop=True))
+    experiments = [io.read_csv(p) for p in inputs["experiments"]]
     io.write_csv(outputs["targets"], summary.target_frame(table, experiments, shipped))
     figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
     models = [VARIANTS[v] for v in variants]

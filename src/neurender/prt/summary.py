@@ -82,6 +82,17 @@ def compression_rows(
     return pd.DataFrame(rows)
 
 
+def shipped_rows(onnx_files: dict, model: str) -> pd.DataFrame:
+    """The size of each shipped network file (``onnx_files`` keyed ``(object,
+    material)``), a copy of the shipped variant ``model``'s: model ``"<model> <material>
+    (shipped)"``, metric ``network_file_bytes``."""
+    rows = []
+    for (obj, material), path in onnx_files.items():
+        size = {"network_file_bytes": Path(path).stat().st_size}
+        rows += tidy_rows("prt", obj, f"{model} {material} (shipped)", "compression", size)
+    return pd.DataFrame(rows)
+
+
 def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
     """Per object and material, of the shipped variant ``model``: test SSIM (and on
     extrapolated frames) at least the target, above MoMoPRT's; where the paper's form
