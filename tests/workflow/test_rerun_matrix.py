@@ -128,6 +128,9 @@ READERS: dict[str, set[str]] = {
     "prt_model.render_resolution": {"prt_evaluate", "prt_experiment", "prt_relight"},
     "prt_model.glossy_exponent": {"prt_evaluate"},
     "prt_model.equal_quality_directions": {"prt_evaluate", "prt_model_summary"},
+    # The variants trained are also jobs that appear or disappear (prt_train's).
+    "prt_model.variants": {"prt_evaluate", "prt_experiment", "prt_model_summary"},
+    "prt_model.shipped": {"prt_model_summary", "prt_ship"},
     "ndr.width": {
         "ndr_data",
         "ndr_relight",
@@ -312,6 +315,8 @@ NEW_VALUES = {
     "prt_model.lr_schedule": "constant",
     "prt_model.ridges": [1.0e-4, 1.0e-2],
     "prt_model.equal_quality_directions": [16, 36],
+    "prt_model.variants": ["shadowing"],
+    "prt_model.shipped": "paper",
     "ndr.width": 64,
     "ndr.primitives": [2, 6],
     "ndr.coarse_samples": 25,
