@@ -204,7 +204,7 @@ def equal_quality_figure(
         ax.set_ylim(max(0.0, lowest - 0.1), 1.0)
         ax.set_xlabel("milliseconds per frame (same machine and threads)")
         ax.set_ylabel("diffuse SSIM vs clean reference")
-        ax.set_title(f"Equal quality: {model} vs ray-traced transfer (labels: directions)")
+        ax.set_title(f"{model} vs ray-traced transfer (labels: directions)", fontsize=9)
         ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     save_figure(fig, out)
