@@ -111,11 +111,11 @@ def prt_variant_files(kind, objects=None, materials=PRT_MATERIALS):
     object (``objects``; ``None``: the rule's own ``{object}`` wildcard) and material, in
     the order object, variant, material."""
     suffix = "_loss.csv" if kind == "loss.csv" else f".{kind}"
-    path = "results/prt/{object}/variants/{variant}_{material}" + suffix
-    if objects is None:
-        path = path.replace("{object}", "{{object}}")
-        return expand(path, variant=PRT_VARIANTS, material=materials)
-    return expand(path, object=objects, variant=PRT_VARIANTS, material=materials)
+    # The rule's own wildcard stays a wildcard: expand() turns {{object}} into {object}.
+    where = {} if objects is None else {"object": objects}
+    folder = "{{object}}" if objects is None else "{object}"
+    path = f"results/prt/{folder}/variants/{{variant}}_{{material}}{suffix}"
+    return expand(path, **where, variant=PRT_VARIANTS, material=materials)
 
 
 def prt_shipped_files(wildcards):
