@@ -4,7 +4,8 @@ functions are in ``workflow/rules/helpers/prt.smk``).
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
 ``(inputs, outputs, params, threads)``. Their files are under ``results/prt/``:
 ``probes/`` (the light probes and their SH), ``<object>/`` (geometry image, sequence,
-one folder of frames and a manifest per split, networks, scores, deployment rows) and
+one folder of frames and a manifest per split, scores, deployment rows, the shipped
+networks ``deepprt_<material>``, every variant's networks in ``variants/``) and
 ``figures/``. Formats of the probes' SH, the sequences and the frames:
 :mod:`neurender.prt.frames`; of the deployment rows: :mod:`neurender.deployment`.
 """
@@ -309,14 +310,18 @@ def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     model.save(outputs["model"])
 
 
-def _variant_files(variants: list[str], files: list[str], materials=MATERIALS) -> dict:
+def _variant_files(
+    variants: list[str], files: list[str], materials: tuple[str, ...] = MATERIALS
+) -> dict:
     """``(variant, material) -> file`` of a rule's per-variant files (expanded in the
     order variant, material)."""
     keys = [(v, m) for v in variants for m in materials]
     return dict(zip(keys, files, strict=True))
 
 
-def _evaluation_scores(inputs, params, seq, light, nets, threads):
+def _evaluation_scores(
+    inputs: dict, params: dict, seq: dict, light: np.ndarray, nets: dict, threads: int
+) -> tuple[pd.DataFrame, dict, frames.Split]:
     """Per-frame scores of every network (keys ``(model name, material)``), MoMoPRT and
     the noise floor on val and test, Fig. 7's panels and the test split."""
     name, n_bands = params["object"], params["n_bands"]
