@@ -153,3 +153,25 @@ def test_no_radiance_target_without_the_paper_form():
     alone = table[table.model != "DeepPRT"]
     found = target_frame(alone, [], "DeepPRT shadowing")
     assert not found.check.str.contains("rel_l1_radiance").any()
+
+
+def test_the_fig6_targets_are_those_of_the_shipped_variant():
+    """On the excluded-expression path the shadowing variant is below MoMoPRT everywhere
+    and 2x below at the far end; the paper's form is above MoMoPRT at its far end."""
+    rows = []
+    for x, (paper, shadowing, momoprt) in enumerate([(1.0, 0.5, 0.8), (3.0, 1.0, 2.0)]):
+        for model, value in (("DeepPRT", paper), ("DeepPRT shadowing", shadowing)):
+            rows += tidy_rows("prt", "head_excluded", model, "test", {"l2rgb_diffuse": value}, x=x)
+        rows += tidy_rows(
+            "prt", "head_excluded", "MoMoPRT", "test", {"l2rgb_diffuse": momoprt}, x=x
+        )
+    table = pd.DataFrame(rows)
+    shipped = target_frame(pd.DataFrame(columns=table.columns), [table], "DeepPRT shadowing")
+    far = shipped.set_index("check").loc["MoMoPRT / DeepPRT shadowing L2-RGB at the far end >= 1.5"]
+    assert far.measured == 2.0 and far.met
+    assert shipped.met.all() and len(shipped) == 2
+    paper = target_frame(pd.DataFrame(columns=table.columns), [table], "DeepPRT")
+    assert paper.set_index("check").loc[
+        "MoMoPRT / DeepPRT L2-RGB at the far end >= 1.5"
+    ].measured == (pytest.approx(2 / 3))
+    assert not paper.met.any()
