@@ -169,6 +169,13 @@ def test_the_dry_run_refuses_a_bad_config_before_any_job(tmp_path):
     assert "metaballs.balls = [6, 2]: expected [min, max] with min <= max" in out
 
 
+def test_the_dry_run_refuses_a_shipped_variant_that_is_not_trained(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("prt_model:\n  variants: [paper]\n  shipped: shadowing\n")
+    out = _refused_dry_run(bad)
+    assert "prt_model.shipped = 'shadowing': expected one of prt_model.variants ['paper']" in out
+
+
 def test_a_renamed_section_is_refused_naming_its_new_key_and_the_file_that_sets_it(tmp_path):
     old, other = tmp_path / "old.yaml", tmp_path / "other.yaml"
     old.write_text("simplify:\n  steps: 10\n")

@@ -126,3 +126,14 @@ def test_csv_errors_name_the_file_and_what_it_is(tmp_path):
     (tmp_path / "long.csv").write_text("a,b\n1,2\n3,4,5\n")
     with pytest.raises(OSError, match=f"CSV file {tmp_path / 'long.csv'}: .*line 3, saw 3"):
         io.read_csv(tmp_path / "long.csv")
+
+
+def test_copy_file_gives_the_same_bytes_and_names_a_missing_source(tmp_path):
+    source = tmp_path / "net.onnx"
+    source.write_bytes(bytes(range(256)) * 3)
+    io.copy_file(source, tmp_path / "out" / "shipped.onnx")
+    assert (tmp_path / "out" / "shipped.onnx").read_bytes() == source.read_bytes()
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["shipped.onnx"]
+    with pytest.raises(FileNotFoundError, match="missing.onnx"):
+        io.copy_file(tmp_path / "missing.onnx", tmp_path / "x.onnx")
+    assert not (tmp_path / "x.onnx").exists()

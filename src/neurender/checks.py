@@ -1,7 +1,8 @@
 """The sentences config rules are made of, shared by every method's checks
 (``<package>/method.py``'s ``problems``): ranges, perfect squares, powers of two, sizes a
-U-Net can halve, names that must be built in or given by the user. Each yields one
-sentence per broken rule, naming the key, its value and what was expected.
+U-Net can halve, names that must be built in or given by the user, a value that must be
+one of another key's. Each yields one sentence per broken rule, naming the key, its value
+and what was expected.
 """
 
 from __future__ import annotations
@@ -47,3 +48,9 @@ def known(entries: list, builtins: tuple, user: Mapping, name: str) -> Iterator[
                 f"{name} entry {entry!r} is neither built in ({', '.join(builtins)}) nor listed "
                 f"under the user entries ({', '.join(user) or 'none'})"
             )
+
+
+def member(value, options: list, name: str, options_name: str) -> Iterator[str]:
+    """``value`` (config key ``name``) is one of ``options`` (config key ``options_name``)."""
+    if value not in options:
+        yield f"{name} = {value!r}: expected one of {options_name} {list(options)}"

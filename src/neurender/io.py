@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import shutil
 import tempfile
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
@@ -232,6 +233,14 @@ def load_npz(path: PathLike) -> dict[str, np.ndarray]:
             return {k: data[k] for k in data.files}
     except (OSError, ValueError) as err:
         raise OSError(f"cannot read NPZ file {p}: {err}") from err
+
+
+def copy_file(source: PathLike, target: PathLike) -> None:
+    """Copy ``source``'s bytes to ``target`` atomically (``target`` appears whole or not
+    at all)."""
+    source = _require_file(source, "source")
+    with atomic_path(target) as tmp:
+        shutil.copyfile(source, tmp)
 
 
 def checksum(paths: Sequence[PathLike]) -> str:

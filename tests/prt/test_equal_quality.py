@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neurender.nn.inference import onnx_metadata
-from neurender.prt.equal_quality import deployment_rows, inference_seconds
+from neurender.prt.equal_quality import deployment_rows, inference_seconds, network_timing_rows
 from neurender.prt.frames import Split
 from neurender.prt.model import DeepPRT, export_deepprt
 from neurender.prt.training import train_deepprt
@@ -45,7 +45,11 @@ def test_a_row_per_network_with_the_times_it_was_given(shipped):
     (row,) = deployment_rows(
         "head", {"diffuse": net}, {"diffuse": onnx_file}, {"diffuse": seconds}, test, 1
     )
-    assert (row["method"], row["network"], row["resolution"]) == ("prt", "head diffuse", "8x8")
+    assert (row["method"], row["network"], row["resolution"]) == (
+        "prt",
+        "head diffuse (DeepPRT)",
+        "8x8",
+    )
     assert row["parameters"] == net.parameters and row["onnx_file"] == onnx_file
     with open(onnx_file, "rb") as f:
         assert row["onnx_bytes"] == len(f.read())
@@ -63,3 +67,33 @@ def test_a_network_run_by_pytorch_alone_has_no_onnx_runtime_time(shipped):
         "head", {"diffuse": net}, {"diffuse": onnx_file}, {"diffuse": {"pytorch": 0.002}}, test, 1
     )
     assert math.isnan(row["onnxruntime_ms_per_frame"]) and row["pytorch_ms_per_frame"] == 2.0
+
+
+def test_each_variant_is_named_in_its_deployment_row(shipped):
+    checkpoint, onnx_file, test = shipped
+    net = DeepPRT(checkpoint, onnx_file, device="cpu")
+    times = {"diffuse": {"pytorch": 0.002, "onnxruntime": 0.001}}
+    (row,) = deployment_rows(
+        "head", {"diffuse": net}, {"diffuse": onnx_file}, times, test, 1, "DeepPRT shadowing"
+    )
+    assert row["network"] == "head diffuse (DeepPRT shadowing)"
+
+
+def test_a_variants_equal_quality_ratio_is_against_the_cheapest_count_reaching_its_ssim(shipped):
+    checkpoint, onnx_file, _ = shipped
+    net = DeepPRT(checkpoint, onnx_file, device="cpu")  # ships with ONNX Runtime
+    estimates = {16: (0.1, 0.80), 64: (0.4, 0.93), 256: (1.6, 0.99)}
+    engine_s = {"onnxruntime": 0.002, "pytorch": 0.004}
+    rows = network_timing_rows("head", "DeepPRT shadowing", net, engine_s, 0.9, estimates, 8.0)
+    assert {r["model"] for r in rows} == {"DeepPRT shadowing"}
+    value = {r["metric"]: r["value"] for r in rows}
+    assert value["inference_ms_per_frame"] == 2.0
+    assert value["inference_ms_per_frame_pytorch"] == 4.0
+    assert value["equal_quality_directions"] == 64
+    assert value["equal_quality_speedup"] == pytest.approx(0.4 / 0.002)
+    assert value["speedup_vs_reference_gt"] == pytest.approx(8.0 / 0.002)
+    above = network_timing_rows("head", "DeepPRT", net, engine_s, 0.995, estimates, 8.0)
+    value = {r["metric"]: r["value"] for r in above}
+    assert math.isnan(value["equal_quality_speedup"]) and math.isnan(
+        value["equal_quality_directions"]
+    )

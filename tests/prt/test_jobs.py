@@ -1,9 +1,13 @@
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from neurender import io, sh
 from neurender.prt import frames, jobs
+from neurender.prt.local_model import ShadowingTransfer
+from neurender.prt.model import DeepPRT, TransferNetwork, load_transfer_module
 
 CFG = {
     "seed": 5,
@@ -96,3 +100,96 @@ def test_experiment_sequences(head, name):
         k = 2  # jaw_open
         assert (seq["train_params"][:, k] == 0).all()
         np.testing.assert_allclose(seq["test_params"][-1], np.eye(7)[k], atol=1e-6)
+
+
+TRAIN = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
+TRAIN |= {"lr_schedule": "cosine", "device": "cpu"}
+
+
+@pytest.fixture(scope="module")
+def trained(head):
+    """The head's train and val frames, and one network of every variant and material
+    trained by the job as the rule calls it (the paper's form gets its own key)."""
+    inputs = {"seq": head / "seq.npz"}
+    for split in ("train", "val"):
+        jobs.prt_transfer(
+            {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},
+            {"frames": head / split, "manifest": head / f"{split}_manifest.csv"},
+            {**CFG, "object": "head", "split": split, "directions": 16},
+            1,
+        )
+        inputs |= {
+            f"{split}_dir": head / split,
+            f"{split}_manifest": head / f"{split}_manifest.csv",
+        }
+    out = head / "variants"
+    files = {}
+    for variant, material in [
+        ("paper", "diffuse"),
+        ("shadowing", "diffuse"),
+        ("shadowing", "glossy"),
+    ]:
+        stem = out / f"{variant}_{material}"
+        outputs = {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx", "loss": f"{stem}_loss.csv"}
+        outputs["tensorboard"] = str(head / "tensorboard" / f"{variant}_{material}" / "run.json")
+        params = {**CFG, **TRAIN, "material": material, "variant": variant}
+        extra = {"light": head / "sky_sh.csv"} if material == "glossy" else {}
+        if variant == "paper":
+            params["residual_targets"] = True
+        jobs.prt_train({**inputs, **extra}, outputs, params, 1)
+        files[variant, material] = outputs
+    return inputs, files
+
+
+@pytest.mark.parametrize(
+    ("variant", "material", "module"),
+    [
+        ("paper", "diffuse", TransferNetwork),
+        ("shadowing", "diffuse", ShadowingTransfer),
+        ("shadowing", "glossy", ShadowingTransfer),
+    ],
+)
+def test_each_variant_trains_into_a_checkpoint_both_engines_serve(
+    trained, head, variant, material, module
+):
+    inputs, files = trained
+    outputs = files[variant, material]
+    assert isinstance(load_transfer_module(outputs["checkpoint"]), module)
+    seq = io.load_npz(inputs["seq"])
+    val = frames.load_split(inputs["val_dir"], inputs["val_manifest"], seq["val_params"], 4)
+    net = DeepPRT(outputs["checkpoint"], outputs["onnx"], device="cpu")
+    torch_pred, onnx_pred = (net.predict(val, engine=e) for e in ("pytorch", "onnxruntime"))
+    assert torch_pred.shape == val.targets(material).shape  # (F, C, n, n)
+    np.testing.assert_allclose(onnx_pred, torch_pred, rtol=1e-4, atol=1e-5)
+    assert io.read_csv(outputs["loss"]).epoch.max() == 1
+
+
+def test_an_unknown_variant_is_refused_naming_it(trained, head):
+    inputs, _ = trained
+    params = {**CFG, **TRAIN, "material": "diffuse", "variant": "tiny"}
+    outputs = {"checkpoint": head / "x.pt", "onnx": head / "x.onnx", "loss": head / "x.csv"}
+    with pytest.raises(
+        ValueError, match=r"variant 'tiny'; expected one of \['paper', 'shadowing'\]"
+    ):
+        jobs.prt_train(inputs, outputs, params, 1)
+
+
+def test_ship_copies_the_shipped_variants_bytes(trained, head):
+    _, files = trained
+    source = files["shadowing", "diffuse"]
+    outputs = {"checkpoint": head / "deepprt_diffuse.pt", "onnx": head / "deepprt_diffuse.onnx"}
+    inputs = {"checkpoint": source["checkpoint"], "onnx": source["onnx"]}
+    jobs.prt_ship(inputs, outputs, {"shipped": "shadowing"}, 1)
+    for key in ("checkpoint", "onnx"):
+        with open(outputs[key], "rb") as got, open(source[key], "rb") as want:
+            assert got.read() == want.read()
+    assert isinstance(load_transfer_module(outputs["checkpoint"]), ShadowingTransfer)
+
+
+@pytest.mark.parametrize("variant", ["paper", "shadowing"])
+def test_each_variant_logs_its_epochs_and_previews_to_tensorboard(
+    trained, variant, tensorboard_steps
+):
+    _, files = trained
+    logged = tensorboard_steps(Path(files[variant, "diffuse"]["tensorboard"]).parent)
+    assert logged["val/loss"] == logged["previews/prediction"] == logged["lr"] == [1]

@@ -3,14 +3,13 @@ import pytest
 import torch
 
 from neurender.geometry import grid_normals
-from neurender.nn.inference import OnnxNetwork
+from neurender.nn.inference import OnnxNetwork, export_onnx, prepare_for_inference
 from neurender.prt import unshadowed
 from neurender.prt.frames import Split
 from neurender.prt.local_model import (
     DilatedNet,
     LocalConfig,
     ShadowingTransfer,
-    export_local,
     load_local,
     local_features,
     receptive_field,
@@ -113,7 +112,8 @@ def test_local_mean_is_an_average_over_the_window():
 def test_onnx_export_equals_pytorch(tmp_path, material, architecture):
     model = _trained_like(_local(material=material, architecture=architecture))
     x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
-    export_local(model, x, tmp_path / "net.onnx")
+    # As export_deepprt exports a checkpoint's graph: traced on two frames.
+    export_onnx(prepare_for_inference(model), torch.from_numpy(x[:2]), tmp_path / "net.onnx")
     got = OnnxNetwork(tmp_path / "net.onnx")(x)  # a batch of 3: the batch axis is dynamic
     want = model(torch.from_numpy(x)).detach().numpy()
     assert got.shape == want.shape == (3, 16 if material == "diffuse" else 48, 16, 16)

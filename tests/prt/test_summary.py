@@ -1,13 +1,15 @@
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
 from neurender import train
 from neurender.nn.unet import count_parameters
 from neurender.prt.frames import Split
-from neurender.prt.model import DeepPRT, Normalisation, build_network
-from neurender.prt.summary import compression_rows
+from neurender.prt.model import Normalisation, build_network, load_transfer_module
+from neurender.prt.summary import compression_rows, shipped_rows, target_frame
 from neurender.prt.training import train_deepprt
+from neurender.tables import threshold, tidy_rows
 
 CFG = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
 CFG |= {"residual_targets": True, "device": "cpu", "lr_schedule": "cosine"}
@@ -42,9 +44,9 @@ def test_a_trained_checkpoint_loads_with_weights_only_and_keeps_the_normalisatio
     for name, value in vars(fitted).items():
         assert getattr(stored, name).dtype == value.dtype
         np.testing.assert_array_equal(getattr(stored, name), value)
-    # The loaded graph's buffer (channels-last copies keep the values).
-    loaded = DeepPRT(paths["glossy"], device="cpu").module.t_offset.numpy()
-    np.testing.assert_array_equal(loaded[0], fitted.t_offset)
+    np.testing.assert_array_equal(
+        load_transfer_module(paths["glossy"]).t_offset[0].numpy(), fitted.t_offset
+    )
 
 
 def test_compression_rows_read_the_parameters_from_the_checkpoints(trained):
@@ -56,9 +58,9 @@ def test_compression_rows_read_the_parameters_from_the_checkpoints(trained):
             (d / f"{i:03d}.exr").write_bytes(b"x" * 10)
     onnx = {}
     for material in paths:
-        onnx[("obj", material)] = folder / f"{material}.onnx"
-        onnx[("obj", material)].write_bytes(b"y" * (7 if material == "diffuse" else 9))
-    checkpoints = {("obj", m): p for m, p in paths.items()}
+        onnx[("obj", "DeepPRT", material)] = folder / f"{material}.onnx"
+        onnx[("obj", "DeepPRT", material)].write_bytes(b"y" * (7 if material == "diffuse" else 9))
+    checkpoints = {("obj", "DeepPRT", m): p for m, p in paths.items()}
     table = compression_rows(["obj"], checkpoints, onnx, {"obj": dirs}, n=4, n_bands=4)
     for material, m in (("diffuse", 16), ("glossy", 48)):
         rows = table[(table.dataset == "obj") & (table.model == f"DeepPRT {material}")]
@@ -81,5 +83,95 @@ def test_compression_rows_refuse_an_old_checkpoint_holding_numpy_arrays_naming_i
     old = tmp_path / "numpy.pt"
     torch.save(state, old)  # numpy arrays: unpickled by calling numpy's reconstructors
     with pytest.raises(OSError, match=f"refusing to load checkpoint {old}"):
-        compression_rows(["obj"], {("obj", "diffuse"): old}, {}, {"obj": [tmp_path] * 3}, 4, 4)
+        compression_rows(
+            ["obj"], {("obj", "DeepPRT", "diffuse"): old}, {}, {"obj": [tmp_path] * 3}, 4, 4
+        )
     assert train.load_checkpoint(paths["diffuse"])["extra"]["material"] == "diffuse"
+
+
+def test_compression_rows_name_each_variant(trained, tmp_path):
+    """Two variants' checkpoints of one object give two sets of rows, each its own."""
+    folder, paths, _ = trained
+    dirs = [tmp_path / s for s in ("train", "val", "test")]
+    for d in dirs:
+        d.mkdir()
+        (d / "0.exr").write_bytes(b"x")
+    checkpoints, onnx = {}, {}
+    for model, size in (("DeepPRT", 3), ("DeepPRT shadowing", 5)):
+        checkpoints["obj", model, "diffuse"] = paths["diffuse"]
+        onnx["obj", model, "diffuse"] = tmp_path / f"{size}.onnx"
+        onnx["obj", model, "diffuse"].write_bytes(b"y" * size)
+    table = compression_rows(["obj"], checkpoints, onnx, {"obj": dirs}, n=4, n_bands=4)
+    sizes = table[table.metric == "network_file_bytes"].set_index("model").value
+    assert sizes.to_dict() == {"DeepPRT diffuse": 3, "DeepPRT shadowing diffuse": 5}
+    shipped = shipped_rows(
+        {("obj", "diffuse"): onnx["obj", "DeepPRT shadowing", "diffuse"]}, "DeepPRT shadowing"
+    )
+    assert shipped.model.tolist() == ["DeepPRT shadowing diffuse (shipped)"]
+    assert shipped.value.tolist() == [5]
+
+
+def _metrics(paper_l1: float, shadowing_l1: float) -> pd.DataFrame:
+    """One object's aggregated rows: the shadowing variant above MoMoPRT in SSIM, the
+    paper's form below it; relative L1 of radiance of both."""
+    rows = []
+    for model, ssim, l1 in (
+        ("DeepPRT", 0.90, paper_l1),
+        ("DeepPRT shadowing", 0.99, shadowing_l1),
+        ("MoMoPRT", 0.95, 0.2),
+    ):
+        for material in ("diffuse", "glossy"):
+            values = {f"ssim_{material}": ssim, f"rel_l1_radiance_{material}": l1}
+            rows += tidy_rows("prt", "obj", model, "test", values)
+        rows += tidy_rows("prt", "obj", model, "timing", {"equal_quality_speedup": 30.0})
+    return pd.DataFrame(rows)
+
+
+def test_targets_are_those_of_the_shipped_variant():
+    table = _metrics(0.10, 0.04)
+    shipped = target_frame(table, [], "DeepPRT shadowing").set_index("check")
+    above = "DeepPRT shadowing ssim_diffuse on test above MoMoPRT's (0.9500)"
+    assert shipped.loc[above, "measured"] == 0.99 and shipped.loc[above, "met"]
+    paper = target_frame(table, [], "DeepPRT").set_index("check")
+    above = "DeepPRT ssim_diffuse on test above MoMoPRT's (0.9500)"
+    assert paper.loc[above, "measured"] == 0.90 and not paper.loc[above, "met"]
+    assert not any("shadowing" in c for c in paper.index)
+
+
+@pytest.mark.parametrize(("shadowing_l1", "met"), [(0.05, True), (0.051, False)])
+def test_the_shipped_variant_needs_half_the_paper_forms_radiance_error(shadowing_l1, met):
+    assert threshold("prt", "rel_l1_vs_paper") == 0.5
+    found = target_frame(_metrics(0.10, shadowing_l1), [], "DeepPRT shadowing")
+    rows = found[found.check.str.contains("rel_l1_radiance")]
+    assert len(rows) == 2  # diffuse and glossy
+    assert rows.measured.tolist() == [shadowing_l1] * 2 and rows.met.tolist() == [met] * 2
+    assert "<= 0.5 x DeepPRT's (0.1000)" in rows.check.iloc[0]
+
+
+def test_no_radiance_target_without_the_paper_form():
+    table = _metrics(0.10, 0.04)
+    alone = table[table.model != "DeepPRT"]
+    found = target_frame(alone, [], "DeepPRT shadowing")
+    assert not found.check.str.contains("rel_l1_radiance").any()
+
+
+def test_the_fig6_targets_are_those_of_the_shipped_variant():
+    """On the excluded-expression path the shadowing variant is below MoMoPRT everywhere
+    and 2x below at the far end; the paper's form is above MoMoPRT at its far end."""
+    rows = []
+    for x, (paper, shadowing, momoprt) in enumerate([(1.0, 0.5, 0.8), (3.0, 1.0, 2.0)]):
+        for model, value in (("DeepPRT", paper), ("DeepPRT shadowing", shadowing)):
+            rows += tidy_rows("prt", "head_excluded", model, "test", {"l2rgb_diffuse": value}, x=x)
+        rows += tidy_rows(
+            "prt", "head_excluded", "MoMoPRT", "test", {"l2rgb_diffuse": momoprt}, x=x
+        )
+    table = pd.DataFrame(rows)
+    shipped = target_frame(pd.DataFrame(columns=table.columns), [table], "DeepPRT shadowing")
+    far = shipped.set_index("check").loc["MoMoPRT / DeepPRT shadowing L2-RGB at the far end >= 1.5"]
+    assert far.measured == 2.0 and far.met
+    assert shipped.met.all() and len(shipped) == 2
+    paper = target_frame(pd.DataFrame(columns=table.columns), [table], "DeepPRT")
+    assert paper.set_index("check").loc[
+        "MoMoPRT / DeepPRT L2-RGB at the far end >= 1.5"
+    ].measured == (pytest.approx(2 / 3))
+    assert not paper.met.any()

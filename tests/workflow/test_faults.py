@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
-TRAIN = "results/prt/head/deepprt_diffuse.pt"
+TRAIN = "results/prt/head/variants/paper_diffuse.pt"
 TEST_FRAMES = "results/prt/head/test"
 #: Smoke scale, one object, with enough epochs and test frames to be caught mid-way.
 FAULT_CONFIG = {
@@ -109,13 +109,13 @@ def test_a_killed_training_job_resumes_and_ends_as_an_uninterrupted_run(work):
     assert not (work / TRAIN).exists()  # the checkpoint is written only at the end
     dry = _snakemake(work, TRAIN, "-n")
     assert "prt_train" in dry  # not taken as complete
-    log = work / "results/logs/prt_train/head_diffuse.log"
+    log = work / "results/logs/prt_train/head_paper_diffuse.log"
     _snakemake(work, TRAIN)
     assert "resuming from" in log.read_text()
-    resumed = (work / "results/prt/head/deepprt_diffuse_loss.csv").read_text()
+    resumed = (work / "results/prt/head/variants/paper_diffuse_loss.csv").read_text()
     _snakemake(work, TRAIN, "--forcerun", "prt_train")
     assert "resuming from" not in log.read_text()
-    uninterrupted = (work / "results/prt/head/deepprt_diffuse_loss.csv").read_text()
+    uninterrupted = (work / "results/prt/head/variants/paper_diffuse_loss.csv").read_text()
     assert resumed == uninterrupted
     assert len(resumed.splitlines()) > 300  # every epoch logged once
 

@@ -147,6 +147,9 @@ READERS: dict[str, set[str]] = {
     "prt_model.equal_quality_directions": {"prt_evaluate", "prt_model_summary"},
     "prt_model.unseen_strengths": {"prt_unseen"},
     "prt_model.unseen_frames": {"prt_unseen"},
+    # The variants trained are also jobs that appear or disappear (prt_train's).
+    "prt_model.variants": {"prt_evaluate", "prt_experiment", "prt_model_summary", "prt_unseen"},
+    "prt_model.shipped": {"prt_model_summary", "prt_ship"},
     "ndr.width": {
         "ndr_data",
         "ndr_equal_quality",
@@ -392,6 +395,8 @@ NEW_VALUES = {
     "prt_model.ridges": [1.0e-4, 1.0e-2],
     "prt_model.equal_quality_directions": [16, 36],
     "prt_model.unseen_strengths": [0.25, 1.0],
+    "prt_model.variants": ["shadowing"],
+    "prt_model.shipped": "paper",
     "ndr.width": 64,
     "ndr.primitives": [2, 6],
     "ndr.coarse_samples": 25,

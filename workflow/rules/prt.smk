@@ -1,6 +1,7 @@
 # DeepPRT (Li et al. 2019): meshes -> geometry images -> deformation sequences ->
-# ray-traced SH transfer per frame -> ResNet U-Net per object and material, MoMoPRT
-# baseline, rendered-appearance evaluation, compression, timing and the paper's experiments.
+# ray-traced SH transfer per frame -> a network per variant (prt_model.variants), object and
+# material, the shipped variant copied to deepprt_{material}, MoMoPRT baseline,
+# rendered-appearance evaluation, compression, timing and the paper's experiments.
 # Helpers (params and input functions): workflow/rules/helpers/prt.smk.
 
 
@@ -239,16 +240,16 @@ rule prt_probes_figure:
 
 rule prt_train:
     input:
-        unpack(prt_training_files),
+        unpack(prt_variant_training_files),
     output:
-        checkpoint="results/prt/{object}/deepprt_{material}.pt",
-        onnx="results/prt/{object}/deepprt_{material}.onnx",
-        loss="results/prt/{object}/deepprt_{material}_loss.csv",
-        tensorboard="results/tensorboard/prt/{object}_{material}/run.json",
+        checkpoint="results/prt/{object}/variants/{variant}_{material}.pt",
+        onnx="results/prt/{object}/variants/{variant}_{material}.onnx",
+        loss="results/prt/{object}/variants/{variant}_{material}_loss.csv",
+        tensorboard="results/tensorboard/prt/{object}_{variant}_{material}/run.json",
     log:
-        "results/logs/prt_train/{object}_{material}.log",
+        "results/logs/prt_train/{object}_{variant}_{material}.log",
     benchmark:
-        "results/benchmarks/prt_train/{object}_{material}.tsv"
+        "results/benchmarks/prt_train/{object}_{variant}_{material}.tsv"
     priority: prt_train_priority
     conda:
         "../envs/neurender.yaml"
@@ -259,6 +260,33 @@ rule prt_train:
         cfg=prt_train_params,
     script:
         "../scripts/prt_train.py"
+
+
+# The shipped network (prt_model.shipped): what relighting, the viewer and a renderer use.
+# A file copy: local, so that a cluster run does not queue a job for it.
+localrules:
+    prt_ship,
+
+
+rule prt_ship:
+    input:
+        unpack(prt_shipped_files),
+    output:
+        checkpoint="results/prt/{object}/deepprt_{material}.pt",
+        onnx="results/prt/{object}/deepprt_{material}.onnx",
+    log:
+        "results/logs/prt_ship/{object}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_ship/{object}_{material}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_ship"),
+    params:
+        cfg=prt_ship_params,
+    script:
+        "../scripts/prt_ship.py"
 
 
 rule prt_momoprt:
@@ -284,12 +312,8 @@ rule prt_momoprt:
 rule prt_evaluate:
     input:
         unpack(prt_evaluation_files),
-        deepprt=expand(
-            "results/prt/{{object}}/deepprt_{material}.pt", material=PRT_MATERIALS
-        ),
-        onnx=expand(
-            "results/prt/{{object}}/deepprt_{material}.onnx", material=PRT_MATERIALS
-        ),
+        deepprt=prt_variant_files("pt"),
+        onnx=prt_variant_files("onnx"),
         momoprt=expand(
             "results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS
         ),
@@ -325,18 +349,11 @@ rule prt_model_summary:
         metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
         deployment=expand("results/prt/{object}/deployment.csv", object=PRT_OBJECTS)
         + expand("results/prt/{x}/experiment_deployment.csv", x=PRT_EXPERIMENTS),
-        checkpoints=expand(
-            "results/prt/{object}/deepprt_{material}.pt",
-            object=PRT_OBJECTS,
-            material=PRT_MATERIALS,
-        ),
-        onnx=expand(
+        checkpoints=prt_variant_files("pt", PRT_OBJECTS),
+        onnx=prt_variant_files("onnx", PRT_OBJECTS),
+        losses=prt_variant_files("loss.csv", PRT_OBJECTS),
+        shipped=expand(
             "results/prt/{object}/deepprt_{material}.onnx",
-            object=PRT_OBJECTS,
-            material=PRT_MATERIALS,
-        ),
-        losses=expand(
-            "results/prt/{object}/deepprt_{material}_loss.csv",
             object=PRT_OBJECTS,
             material=PRT_MATERIALS,
         ),
@@ -344,6 +361,7 @@ rule prt_model_summary:
             "results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS
         ),
         experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
+        unseen="results/prt/unseen.csv",
     output:
         metrics=report(
             "results/prt/metrics.csv",
@@ -394,8 +412,8 @@ rule prt_model_summary:
 rule prt_experiment:
     input:
         unpack(prt_test_files),
-        deepprt="results/prt/{object}/deepprt_diffuse.pt",
-        onnx="results/prt/{object}/deepprt_diffuse.onnx",
+        deepprt=prt_variant_files("pt", materials=["diffuse"]),
+        onnx=prt_variant_files("onnx", materials=["diffuse"]),
         momoprt="results/prt/{object}/momoprt_diffuse.npz",
         light=PRT_LIGHT,
     output:
@@ -424,7 +442,7 @@ rule prt_experiment:
     resources:
         **scheduler_resources("prt_experiment"),
     params:
-        cfg=prt_test_frame_params,
+        cfg=prt_experiment_params,
     script:
         "../scripts/prt_experiment.py"
 

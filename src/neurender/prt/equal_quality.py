@@ -6,8 +6,10 @@ CPU); every other engine it holds is timed beside it (``inference_ms_per_frame_<
 The equal-quality ratio compares that time with the time of the cheapest ray-traced
 ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse SSIM
 against the clean reference reaches the network's, on the first test frames. All on the
-same machine and threads. The same times of every network (diffuse and glossy) are its
-rows of the deployment table (:func:`deployment_rows`).
+same machine and threads. Every variant's diffuse network (its model name,
+:data:`neurender.prt.VARIANTS`) gets its own rows beside the same ray-traced estimates.
+The same times of every network (each variant, diffuse and glossy) are its rows of the
+deployment table (:func:`deployment_rows`).
 """
 
 from __future__ import annotations
@@ -44,18 +46,20 @@ def deployment_rows(
     engine_s: dict[str, dict[str, float]],
     test: Split,
     threads: int,
+    model: str = "DeepPRT",
 ) -> list[dict]:
-    """One object's rows of the deployment table (:mod:`neurender.deployment`), one per
-    material: the network ``nets[m]``, its ONNX file ``onnx_files[m]`` and its times
-    ``engine_s[m]`` (:func:`inference_seconds`; ONNX Runtime NaN where the network ran on
-    a GPU) at the resolution of the ``test`` frames."""
+    """One object's rows of the deployment table (:mod:`neurender.deployment`) for one
+    variant (``model``, its name in the tables), one per material: the network
+    ``nets[m]``, its ONNX file ``onnx_files[m]`` and its times ``engine_s[m]``
+    (:func:`inference_seconds`; ONNX Runtime NaN where the network ran on a GPU) at the
+    resolution of the ``test`` frames; named ``"<object> <material> (<model>)"``."""
     rows = []
     for material, net in nets.items():
         onnx_file = onnx_files[material]
         rows.append(
             deployment_row(
                 "prt",
-                f"{name} {material}",
+                f"{name} {material} ({model})",
                 onnx_file,
                 test.positions.shape[1:3],
                 net.parameters,
@@ -104,45 +108,65 @@ def ray_traced_estimates(
     return out
 
 
-def timing_rows(
+def network_timing_rows(
     name: str,
+    model: str,
     net: DeepPRT,
     engine_s: dict[str, float],
+    target: float,
+    estimates: dict[int, tuple[float, float]],
+    reference_s: float,
+) -> list[dict]:
+    """One variant's timing rows: its time per engine, the speed-up over the reference,
+    its SSIM target, and the direction count and equal-quality ratio of the cheapest
+    ray-traced estimate (``directions -> (seconds, SSIM)``) that reaches ``target``
+    (NaN when none does)."""
+    net_s = engine_s[net.engine]
+    times = {"inference_ms_per_frame": 1000 * net_s}
+    times |= {
+        f"inference_ms_per_frame_{engine}": 1000 * s
+        for engine, s in engine_s.items()
+        if engine != net.engine
+    }
+    matched = [(d, s) for d, (s, ssim) in sorted(estimates.items()) if ssim >= target]
+    directions, equal = matched[0] if matched else (math.nan, math.nan)
+    values = {
+        **times,
+        "speedup_vs_reference_gt": reference_s / net_s,
+        "equal_quality_ssim_target": target,
+        "equal_quality_directions": directions,
+        "equal_quality_speedup": equal / net_s,
+    }
+    return tidy_rows("prt", name, model, "timing", values)
+
+
+def timing_rows(
+    name: str,
+    nets: dict[str, DeepPRT],
+    engine_s: dict[str, dict[str, float]],
     test: Split,
     light: np.ndarray,
     cfg: dict,
     threads: int,
     frames: pd.DataFrame,
 ) -> pd.DataFrame:
-    """Timing rows of one object: the network's time per engine, the ray-traced estimates'
-    times and SSIMs, the speed-up over the reference and the equal-quality ratio.
+    """Timing rows of one object: the ray-traced estimates' times and SSIMs (traced once
+    for all variants) and, per variant, :func:`network_timing_rows`.
 
     Args:
-        engine_s: the network's seconds per frame by engine (:func:`inference_seconds`).
+        nets: model name (:data:`neurender.prt.VARIANTS`) -> its diffuse network.
+        engine_s: model name -> its seconds per frame by engine (:func:`inference_seconds`).
         frames: the object's per-frame scores (:func:`neurender.prt.scores.score_frames`),
-            for the network's diffuse SSIM on the same test frames.
+            for each network's diffuse SSIM on the same test frames.
     """
-    net_s = engine_s[net.engine]
     count = min(cfg["noise_floor_frames"], len(test.positions))
-    deep = frames[
-        (frames.model == "DeepPRT") & (frames.split == "test") & (frames.metric == "ssim_diffuse")
+    test_ssim = frames[
+        (frames.split == "test") & (frames.metric == "ssim_diffuse") & (frames.frame < count)
     ]
-    target = float(deep[deep.frame < count].value.mean())
+    targets = {m: float(test_ssim[test_ssim.model == m].value.mean()) for m in nets}
     estimates = ray_traced_estimates(name, test, count, light, cfg, threads)
     reference = estimates.pop(cfg["reference_directions"])[0]
-    rows = tidy_rows("prt", name, "DeepPRT", "timing", {"inference_ms_per_frame": 1000 * net_s})
-    rows += tidy_rows(
-        "prt",
-        name,
-        "DeepPRT",
-        "timing",
-        {
-            f"inference_ms_per_frame_{engine}": 1000 * s
-            for engine, s in engine_s.items()
-            if engine != net.engine
-        },
-    )
-    equal = equal_directions = math.nan
+    rows = []
     for directions, (seconds, ssim) in estimates.items():
         rows += tidy_rows(
             "prt",
@@ -154,14 +178,10 @@ def timing_rows(
                 f"gt_ssim_{directions}_dirs": ssim,
             },
         )
-        if math.isnan(equal) and ssim >= target:
-            equal, equal_directions = seconds, directions
     gt = {"gt_seconds_per_frame_reference": reference}
     rows += tidy_rows("prt", name, "ground truth", "timing", gt)
-    net_rows = {"speedup_vs_reference_gt": reference / net_s, "equal_quality_ssim_target": target}
-    rows += tidy_rows("prt", name, "DeepPRT", "timing", net_rows)
-    gt = {"equal_quality_directions": equal_directions}
-    rows += tidy_rows("prt", name, "ground truth", "timing", gt)
-    speedup = equal / net_s if not math.isnan(equal) else math.nan
-    rows += tidy_rows("prt", name, "DeepPRT", "timing", {"equal_quality_speedup": speedup})
+    for model, net in nets.items():
+        rows += network_timing_rows(
+            name, model, net, engine_s[model], targets[model], estimates, reference
+        )
     return pd.DataFrame(rows)

@@ -112,30 +112,32 @@ def prediction_figure(name: str, panels: dict | None, out: str) -> None:
 
 
 def loss_figure(loss_csvs: dict, out: str) -> None:
-    """Training and validation L1 per object and material."""
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
-    for (obj, material), path in sorted(loss_csvs.items()):
+    """Training and validation L1 per object, variant and material (``loss_csvs`` keyed
+    ``(object, model name, material)``): a panel per variant and material; the variants'
+    losses are of different targets (normalised transfer, normalised shadowing term)."""
+    models = list(dict.fromkeys(model for _, model, _ in loss_csvs))
+    fig, axes = plt.subplots(
+        len(models), len(MATERIALS), figsize=(9, 3.2 * len(models)), squeeze=False
+    )
+    for (obj, model, material), path in sorted(loss_csvs.items()):
         log_table = io.read_csv(path, ["epoch", "split", "metric", "value"])
-        ax = axes[MATERIALS.index(material)]
+        ax = axes[models.index(model), MATERIALS.index(material)]
         for split, style in (("train", "--"), ("val", "-")):
             sel = log_table[(log_table.split == split) & (log_table.metric == "loss")]
             ax.semilogy(sel.epoch, sel.value, style, label=f"{obj} {split}")
-        ax.set_title(f"DeepPRT {material}: L1 (normalised targets)")
+        ax.set_title(f"{model} {material}: L1 (normalised targets)", fontsize=9)
         ax.set_xlabel("epoch")
-    axes[0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     save_figure(fig, out)
 
 
-def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -> None:
-    """SSIM against the clean reference vs milliseconds per frame: the ray-traced estimates
-    of every count in ``directions`` (a curve per object) and the shipped network (a star;
-    a hollow star: the same network run by PyTorch, where timed), measured on the first
-    test frames; the equal-quality ratio is the horizontal gap."""
-    timing = table[table.split == "timing"]
-    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+def _equal_quality_panel(ax, timing: pd.DataFrame, model: str, directions: list[int]):
+    """One variant's panel of :func:`equal_quality_figure`; returns ``(lowest SSIM
+    target, every time drawn in ms)``."""
     lowest, span = 1.0, []
     for i, (name, rows) in enumerate(timing.groupby("dataset", sort=True)):
+        rows = rows[rows.model.isin(["ground truth", model])]
         value = rows.set_index("metric")["value"]
         counts = sorted(directions)
         ms = [1000 * value[f"gt_seconds_per_frame_{c}_dirs"] for c in counts]
@@ -153,16 +155,17 @@ def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -
                 xytext=(3, -9 - 7 * i),
                 textcoords="offset points",
             )
+        ratio = value["equal_quality_speedup"]
         ax.plot(
             [value["inference_ms_per_frame"]],
             [target],
             "*",
             ms=12,
             color=colour,
-            label=f"{name}: DeepPRT, "
+            label=f"{name}: network, "
             + (
                 f"{ratio:.1f}x at equal SSIM"
-                if math.isfinite(ratio := value["equal_quality_speedup"])
+                if math.isfinite(ratio)
                 else "SSIM above every ray-traced count"
             ),
         )
@@ -178,26 +181,44 @@ def equal_quality_figure(table: pd.DataFrame, directions: list[int], out: str) -
                 label="hollow stars: the same network in PyTorch" if i == 0 else None,
             )
             span.append(value["inference_ms_per_frame_pytorch"])
-    ax.set_xscale("log")
-    ax.xaxis.set_major_formatter(plt.ScalarFormatter())
-    ax.xaxis.set_minor_formatter(plt.NullFormatter())
+    return lowest, span
+
+
+def equal_quality_figure(
+    table: pd.DataFrame, directions: list[int], models: list[str], out: str
+) -> None:
+    """SSIM against the clean reference vs milliseconds per frame, a panel per variant
+    (``models``: their names): the ray-traced estimates of every count in ``directions``
+    (a curve per object) and the variant's network (a star; a hollow star: the same
+    network run by PyTorch, where timed), measured on the first test frames; the
+    equal-quality ratio is the horizontal gap."""
+    timing = table[table.split == "timing"]
+    fig, axes = plt.subplots(1, len(models), figsize=(6.5 * len(models), 3.8), squeeze=False)
     ticks = (0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000)
-    ax.set_xticks([t for t in ticks if min(span) / 1.5 <= t <= max(span) * 1.5])
-    ax.set_ylim(max(0.0, lowest - 0.1), 1.0)
-    ax.set_xlabel("milliseconds per frame (same machine and threads)")
-    ax.set_ylabel("diffuse SSIM vs clean reference")
-    ax.set_title("Equal quality: network vs ray-traced transfer (labels: directions)")
-    ax.legend(fontsize=7, loc="lower left")
+    for ax, model in zip(axes[0], models, strict=True):
+        lowest, span = _equal_quality_panel(ax, timing, model, directions)
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(plt.ScalarFormatter())
+        ax.xaxis.set_minor_formatter(plt.NullFormatter())
+        ax.set_xticks([t for t in ticks if min(span) / 1.5 <= t <= max(span) * 1.5])
+        ax.set_ylim(max(0.0, lowest - 0.1), 1.0)
+        ax.set_xlabel("milliseconds per frame (same machine and threads)")
+        ax.set_ylabel("diffuse SSIM vs clean reference")
+        ax.set_title(f"{model} vs ray-traced transfer (labels: directions)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     save_figure(fig, out)
 
 
 def experiment_figure(name: str, table: pd.DataFrame, label: str, out: str) -> None:
-    """Paper Fig. 6: diffuse L2-RGB of DeepPRT and MoMoPRT along a test path ``x``."""
+    """Paper Fig. 6: diffuse L2-RGB of every model of ``table`` (each DeepPRT variant
+    and MoMoPRT) along a test path ``x``."""
     fig, ax = plt.subplots(figsize=(5, 3.2))
-    for model, style in (("DeepPRT", "o-"), ("MoMoPRT", "s--")):
-        sel = table[(table.model == model) & (table.metric == "l2rgb_diffuse")]
-        ax.semilogy(sel.x, sel.value, style, label=model)
+    sel = table[table.metric == "l2rgb_diffuse"]
+    for i, model in enumerate(dict.fromkeys(sel.model)):
+        rows = sel[sel.model == model]
+        style = "s--" if model == "MoMoPRT" else "o^v"[i % 3] + "-"
+        ax.semilogy(rows.x, rows.value, style, label=model)
     if name == "head_linear":
         ax.axvspan(0, 1, color="0.9", label="training range")
     ax.set_xlabel(label)

@@ -4,7 +4,8 @@ functions are in ``workflow/rules/helpers/prt.smk``).
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
 ``(inputs, outputs, params, threads)``. Their files are under ``results/prt/``:
 ``probes/`` (the light probes and their SH), ``<object>/`` (geometry image, sequence,
-one folder of frames and a manifest per split, networks, scores, deployment rows) and
+one folder of frames and a manifest per split, scores, deployment rows, the shipped
+networks ``deepprt_<material>``, every variant's networks in ``variants/``) and
 ``figures/``. Formats of the probes' SH, the sequences and the frames:
 :mod:`neurender.prt.frames`; of the deployment rows: :mod:`neurender.deployment`.
 """
@@ -40,11 +41,12 @@ from neurender.prt import (
 from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
 from neurender.prt.geometry_image import parametrise, reconstruction_error, resample
+from neurender.prt.local_model import LocalConfig
 from neurender.prt.model import DeepPRT, export_deepprt
 from neurender.prt.momoprt import MoMoPRT, fit_momoprt
 from neurender.prt.scores import aggregate, score_frames
 from neurender.prt.sequences import build_sequences, user_sequences
-from neurender.prt.training import train_deepprt
+from neurender.prt.training import train_deepprt, train_local
 from neurender.prt.viewer import prt_view
 from neurender.shapes import BLENDSHAPES, SourceMesh
 from neurender.tables import tidy_rows
@@ -256,23 +258,43 @@ def prt_benchmark(inputs: dict, outputs: dict, params: dict, threads: int) -> No
 
 
 def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """One DeepPRT network trained on an object's train split (val for model selection),
-    and the selected network exported as the ONNX file a renderer ships."""
+    """One network of one variant (``params["variant"]``, :data:`neurender.prt.VARIANTS`)
+    trained on an object's train split (val for model selection), and the selected
+    network exported as its ONNX file: ``paper``, the paper's U-Net
+    (:func:`~neurender.prt.training.train_deepprt`); ``shadowing``, the unshadowed
+    transfer plus a local network (:func:`~neurender.prt.training.train_local`; glossy
+    reads the SH ``light``)."""
     seq = io.load_npz(inputs["seq"])
     train_split, val_split = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
     material, data_key = params["material"], io.checksum(list(inputs.values()))
-    train_deepprt(
-        train_split,
-        val_split,
-        material,
-        params,
-        threads,
-        outputs["checkpoint"],
-        outputs["loss"],
-        data_key,
-        outputs.get("tensorboard"),
-    )
+    common = (threads, outputs["checkpoint"], outputs["loss"])
+    tensorboard = outputs.get("tensorboard")
+    if params["variant"] == "paper":
+        train_deepprt(train_split, val_split, material, params, *common, data_key, tensorboard)
+    elif params["variant"] == "shadowing":
+        local_cfg = LocalConfig(
+            n_bands=params["n_bands"],
+            material=material,
+            widths=params["widths"],
+            blocks=params["blocks"],
+        )
+        light = _light(inputs["light"], params["n_bands"]) if "light" in inputs else None
+        train_local(
+            train_split, val_split, local_cfg, params, *common, light, data_key, tensorboard
+        )
+    else:
+        raise ValueError(
+            f"prt_train: variant {params['variant']!r}; expected one of {list(VARIANTS)}"
+        )
     export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
+
+
+def prt_ship(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The shipped variant's (``params["shipped"]``) checkpoint and ONNX file copied to
+    the object's ``deepprt_<material>`` files, each atomically."""
+    for key in ("checkpoint", "onnx"):
+        io.copy_file(inputs[key], outputs[key])
+    log.info("shipped the %s variant as %s", params["shipped"], outputs["onnx"])
 
 
 def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
@@ -291,22 +313,26 @@ def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     model.save(outputs["model"])
 
 
-def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """DeepPRT, MoMoPRT and the noise floor scored on the val and test frames of one object
-    (:mod:`neurender.prt.scores`), timed (:mod:`neurender.prt.equal_quality`; each network's
-    times and ONNX file are its ``deployment`` rows), and Fig. 7."""
+def _variant_files(
+    variants: list[str], files: list[str], materials: tuple[str, ...] = MATERIALS
+) -> dict:
+    """``(variant, material) -> file`` of a rule's per-variant files (expanded in the
+    order variant, material)."""
+    keys = [(v, m) for v in variants for m in materials]
+    return dict(zip(keys, files, strict=True))
+
+
+def _evaluation_scores(
+    inputs: dict, params: dict, seq: dict, light: np.ndarray, nets: dict, threads: int
+) -> tuple[pd.DataFrame, dict, frames.Split]:
+    """Per-frame scores of every network (keys ``(model name, material)``), MoMoPRT and
+    the noise floor on val and test, Fig. 7's panels and the test split."""
     name, n_bands = params["object"], params["n_bands"]
-    seq = io.load_npz(inputs["seq"])
-    light = _light(inputs["light"], n_bands)
-    nets = {
-        m: DeepPRT(ckpt, onnx, params["device"], threads)
-        for m, ckpt, onnx in zip(MATERIALS, inputs["deepprt"], inputs["onnx"], strict=True)
-    }
     linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
     rows, panels = [], {}
     for split in ("val", "test"):
         data = _split(inputs, seq, split, n_bands)
-        preds = {("DeepPRT", m): nets[m].predict(data) for m in MATERIALS}
+        preds = {key: net.predict(data) for key, net in nets.items()}
         preds |= {("MoMoPRT", m): linear[m].predict(data) for m in MATERIALS}
         extrapolated = np.zeros(len(data.positions), bool)
         if split == "test":
@@ -314,41 +340,76 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
                 name, seq["test_positions"], light, params, threads
             )
             extrapolated = seq["test_extrapolated"]
-            test = data
         split_rows, split_panels = score_frames(
             name, split, data, preds, extrapolated, light, params
         )
         rows += split_rows
         panels |= split_panels
-    scores = pd.DataFrame(rows)
+    return pd.DataFrame(rows), panels, data
+
+
+def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant's networks (``params["variants"]``, named by
+    :data:`neurender.prt.VARIANTS`), MoMoPRT and the noise floor scored on the val and
+    test frames of one object (:mod:`neurender.prt.scores`), each variant timed
+    (:mod:`neurender.prt.equal_quality`; each network's times and ONNX file are its
+    ``deployment`` rows) with its training budget (``epochs_<material>``), and Fig. 7."""
+    name, variants = params["object"], params["variants"]
+    seq = io.load_npz(inputs["seq"])
+    light = _light(inputs["light"], params["n_bands"])
+    checkpoints = _variant_files(variants, inputs["deepprt"])
+    onnx_files = _variant_files(variants, inputs["onnx"])
+    nets = {
+        (VARIANTS[v], m): DeepPRT(path, onnx_files[v, m], params["device"], threads)
+        for (v, m), path in checkpoints.items()
+    }
+    scores, panels, test = _evaluation_scores(inputs, params, seq, light, nets, threads)
     io.write_csv(outputs["frames"], scores)
-    engine_s = {m: inference_seconds(nets[m], test) for m in MATERIALS}
+    engine_s = {key: inference_seconds(net, test) for key, net in nets.items()}
+    models = [VARIANTS[v] for v in variants]
     timing = timing_rows(
-        name, nets["diffuse"], engine_s["diffuse"], test, light, params, threads, scores
+        name,
+        {model: nets[model, "diffuse"] for model in models},
+        {model: engine_s[model, "diffuse"] for model in models},
+        test,
+        light,
+        params,
+        threads,
+        scores,
     )
-    onnx_files = dict(zip(MATERIALS, inputs["onnx"], strict=True))
-    deployment = deployment_rows(name, nets, onnx_files, engine_s, test, threads)
+    deployment, budget = [], []
+    for v, model in zip(variants, models, strict=True):
+        deployment += deployment_rows(
+            name,
+            {m: nets[model, m] for m in MATERIALS},
+            {m: onnx_files[v, m] for m in MATERIALS},
+            {m: engine_s[model, m] for m in MATERIALS},
+            test,
+            threads,
+            model,
+        )
+        epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
+        budget += tidy_rows("prt", name, model, "test", epochs)
     io.write_csv(outputs["deployment"], deployment_table(deployment))
-    checkpoints = zip(MATERIALS, inputs["deepprt"], strict=True)
-    budget = {f"epochs_{m}": train.epochs_trained(path) for m, path in checkpoints}
-    budget_rows = pd.DataFrame(tidy_rows("prt", name, "DeepPRT", "test", budget))
-    io.write_csv(
-        outputs["metrics"], pd.concat([aggregate(scores), timing, budget_rows], ignore_index=True)
-    )
+    table = pd.concat([aggregate(scores), timing, pd.DataFrame(budget)], ignore_index=True)
+    io.write_csv(outputs["metrics"], table)
     figures.prediction_figure(name, panels, outputs["figure"])
 
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
-    too), the loss figure and the equal-quality figure."""
-    names = params["objects"]
-    keys = [(o, m) for o in names for m in MATERIALS]  # the order of the rule's expand()
+    too), every variant's compression rows and loss curves, the shipped files' sizes, the
+    equal-quality figure, and the targets of the shipped variant (``params["shipped"]``),
+    the unseen-deformation benchmark's (``unseen``, :mod:`neurender.prt.unseen_scores`)
+    too."""
+    names, variants = params["objects"], params["variants"]
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
     deployment = [read_deployment(p) for p in inputs["deployment"]]
     io.write_csv(outputs["deployment"], pd.concat(deployment, ignore_index=True))
     splits = len(SPLITS)
     frame_dirs = {o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(names)}
+    keys = [(o, VARIANTS[v], m) for o in names for v in variants for m in MATERIALS]
     compression = summary.compression_rows(
         names,
         dict(zip(keys, inputs["checkpoints"], strict=True)),
@@ -357,32 +418,47 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
         params["resolution"],
         params["n_bands"],
     )
-    io.write_csv(outputs["compression"], compression)
+    shipped = VARIANTS[params["shipped"]]
+    shipped_files = dict(
+        zip([(o, m) for o in names for m in MATERIALS], inputs["shipped"], strict=True)
+    )
+    compression = pd.concat([compression, summary.shipped_rows(shipped_files, shipped)])
+    io.write_csv(outputs["compression"], compression.reset_index(drop=True))
     experiments = [io.read_csv(p) for p in inputs["experiments"]]
-    io.write_csv(outputs["targets"], summary.target_frame(table, experiments))
+    unseen = io.read_csv(inputs["unseen"])
+    io.write_csv(outputs["targets"], summary.target_frame(table, experiments, shipped, unseen))
     figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
+    models = [VARIANTS[v] for v in variants]
     figures.equal_quality_figure(
-        table, params["equal_quality_directions"], outputs["equal_quality"]
+        table, params["equal_quality_directions"], models, outputs["equal_quality"]
     )
 
 
 def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Paper section 4.2.2 / Fig. 6: diffuse L2-RGB along the experiment's test path for
-    DeepPRT and MoMoPRT; the network's ``deployment`` row (timed as in :func:`prt_evaluate`)."""
+    every variant's diffuse network (``params["variants"]``) and MoMoPRT; each network's
+    ``deployment`` row (timed as in :func:`prt_evaluate`)."""
     name = params["object"]
     seq = io.load_npz(inputs["seq"])
     light = _light(inputs["light"], params["n_bands"])
     data = _split(inputs, seq, "test", params["n_bands"])
     x, label = path_coordinate(name, data)
-    net = DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads)
-    preds = {"DeepPRT": net.predict(data), "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(data)}
+    files = zip(params["variants"], inputs["deepprt"], inputs["onnx"], strict=True)
+    nets = {
+        VARIANTS[v]: (DeepPRT(ckpt, onnx, params["device"], threads), onnx)
+        for v, ckpt, onnx in files
+    }
+    preds = {model: net.predict(data) for model, (net, _) in nets.items()}
+    preds["MoMoPRT"] = MoMoPRT.load(inputs["momoprt"]).predict(data)
     table = pd.DataFrame(path_rows(name, data, x, preds, light, params["render_resolution"]))
     io.write_csv(outputs["csv"], table)
     figures.experiment_figure(name, table, label, outputs["figure"])
-    seconds = {"diffuse": inference_seconds(net, data)}
-    rows = deployment_rows(
-        name, {"diffuse": net}, {"diffuse": inputs["onnx"]}, seconds, data, threads
-    )
+    rows = []
+    for model, (net, onnx) in nets.items():
+        seconds = {"diffuse": inference_seconds(net, data)}
+        rows += deployment_rows(
+            name, {"diffuse": net}, {"diffuse": onnx}, seconds, data, threads, model
+        )
     io.write_csv(outputs["deployment"], deployment_table(rows))
 
 

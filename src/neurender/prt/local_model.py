@@ -36,7 +36,6 @@ import torch.nn.functional as F  # noqa: N812 - the usual name
 from torch import nn
 
 from neurender import train
-from neurender.nn.inference import export_onnx, prepare_for_inference
 from neurender.nn.unet import ResUNet
 from neurender.prt import unshadowed
 
@@ -211,11 +210,3 @@ def load_local(checkpoint: str | Path) -> ShadowingTransfer:
     model = ShadowingTransfer(LocalConfig(**extra["local_config"]), coeffs)
     model.load_state_dict(state["model"])
     return model.eval()
-
-
-def export_local(model: ShadowingTransfer, example: np.ndarray, out: str | Path) -> float:
-    """Write the shipped ONNX file of a trained variant, checked against PyTorch on the
-    first two frames of raw inputs ``example`` ``(F, 6, n, n)`` (the first twice if F = 1)
-    relative to the output's magnitude (transfer is in physical units)."""
-    x = torch.from_numpy(np.ascontiguousarray(example[np.arange(2) % len(example)], np.float32))
-    return export_onnx(prepare_for_inference(model), x, out, rtol=1e-4)

@@ -39,8 +39,10 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
     for name, entry in sequences.items():
         yield from user_sequence_problems(name, entry, made_by_the_workflow)
     yield from checks.known(prt["probes"], BUILTIN_PROBES, prt["user_probes"], "prt.probes")
-    if prt["light"] not in prt["probes"]:
-        yield f"prt.light = {prt['light']!r}: expected one of prt.probes {prt['probes']}"
+    yield from checks.member(prt["light"], prt["probes"], "prt.light", "prt.probes")
+    yield from checks.member(
+        model["shipped"], model["variants"], "prt_model.shipped", "prt_model.variants"
+    )
     yield from checks.square(prt["directions"], "prt.directions")
     yield from checks.square(prt["reference_directions"], "prt.reference_directions")
     for count in model["equal_quality_directions"]:
@@ -201,6 +203,7 @@ METHOD = Method(
         "prt_probes_figure": Rule(DATA),
         "prt_mesh_figure": Rule(DATA, _mesh_figure),
         "prt_train": Rule(MODELS, _train, gpu=True),
+        "prt_ship": Rule(MODELS),
         "prt_momoprt": Rule(MODELS, _momoprt),
         "prt_evaluate": Rule(MODELS, _evaluate),
         "prt_model_summary": Rule(MODELS),

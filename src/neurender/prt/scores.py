@@ -6,6 +6,8 @@ divided by the ground-truth image's maximum (so they lie in [0, 1]) and compared
 the object's silhouette: SSIM (:mod:`neurender.metrics`) and L2-RGB (mean squared error).
 Coefficient errors: L1 of the transfer, and ``accuracy = 1 - sum |pred - gt| / sum |gt|``
 (our reading of the paper's undefined "accuracy": one minus the relative L1 error).
+Radiance error (issue 27): ``rel_l1_radiance = sum |R_pred - R_gt| / sum |R_gt|`` of the
+rendered radiance images inside the silhouette (:func:`relative_l1`), unnormalised.
 """
 
 from __future__ import annotations
@@ -52,6 +54,17 @@ def _tensors(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> tuple[torch.
 def image_ssim(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> float:
     """The SSIM of :func:`compare_images` alone (one SSIM evaluation, no maps)."""
     return float(metrics.ssim(*_tensors(gt, pred, mask)))
+
+
+def relative_l1(pred: np.ndarray, gt: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """``sum |pred - gt| / sum |gt|`` over the entries where ``mask`` (broadcast against
+    them; ``None``: all) is non-zero, e.g. radiance images ``(3, H, W)`` with a mask
+    ``(1, H, W)`` or per-vertex radiance ``(V, 3)``; scale-free, so any units."""
+    inside = np.ones(gt.shape, bool) if mask is None else np.broadcast_to(mask != 0, gt.shape)
+    denominator = float(np.abs(gt[inside]).sum())
+    if denominator <= 0:
+        raise ValueError("relative L1: the reference is zero everywhere inside the mask")
+    return float(np.abs(pred[inside] - gt[inside]).sum()) / denominator
 
 
 def compare_images(gt: np.ndarray, pred: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
@@ -125,6 +138,7 @@ def score_frames(
                 values = {
                     f"ssim_{material}": scores["ssim"],
                     f"l2rgb_{material}": scores["l2rgb"],
+                    f"rel_l1_radiance_{material}": relative_l1(img, gt_img, mask),
                     f"l1_{material}": float(error.mean()),
                     f"accuracy_{material}": 1.0 - float(error.sum() / np.abs(gt_coeffs).sum()),
                 }

@@ -9,13 +9,15 @@ import pandas as pd
 
 from neurender import io, train
 from neurender.nn.unet import count_parameters
-from neurender.prt import MATERIALS
+from neurender.prt import MATERIALS, VARIANTS, unseen_scores
 from neurender.prt.model import build_network
 from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
 
 # Paper section 4.1: 11.8 M parameters, 500 frames, m = 16 (diffuse) or 48 (glossy).
 PAPER_WIDTHS = [64, 128, 256, 512]
 PAPER_FRAMES = 500
+#: The paper form's name in the tables.
+PAPER = VARIANTS["paper"]
 
 
 def data_table(gim_csvs: list[str], manifests: list[str]) -> pd.DataFrame:
@@ -43,16 +45,19 @@ def compression_rows(
     n: int,
     n_bands: int,
 ) -> pd.DataFrame:
-    """Compression ratio r = frames n^2 m / parameters (ours and the paper's setting), bytes;
-    ``frames`` are an object's training and validation frames (``frame_dirs[object]``: the
-    train, val and test folders)."""
+    """Compression ratio r = frames n^2 m / parameters (every variant's, and the paper's
+    setting), bytes; ``checkpoints`` and ``onnx_files`` are keyed ``(object, model name,
+    material)`` (:data:`neurender.prt.VARIANTS`), a row's model is ``"<model> <material>"``;
+    ``frames`` are an object's training and validation frames (``frame_dirs[object]``:
+    the train, val and test folders)."""
     k = n_bands * n_bands
+    channels = {"diffuse": k, "glossy": 3 * k}
     rows = []
 
     def add(dataset, model, metric, value):
         rows.extend(tidy_rows("prt", dataset, model, "compression", {metric: value}))
 
-    for material, m in (("diffuse", k), ("glossy", 3 * k)):
+    for material, m in channels.items():
         paper_params = count_parameters(build_network(m, PAPER_WIDTHS, 1))
         for side in (256, 512):
             add(
@@ -62,29 +67,42 @@ def compression_rows(
                 PAPER_FRAMES * side * side * m / paper_params,
             )
         add("paper setting", f"DeepPRT {material}", "parameters", paper_params)
-        for obj in objects:
-            frames = sum(len(list(Path(d).glob("*.exr"))) for d in frame_dirs[obj][:2])
-            params = train.load_checkpoint(checkpoints[(obj, material)])["extra"]["parameters"]
-            add(obj, f"DeepPRT {material}", "parameters", params)
-            add(obj, f"DeepPRT {material}", "compression_ratio", frames * n * n * m / params)
-            add(
-                obj,
-                f"DeepPRT {material}",
-                "network_file_bytes",
-                Path(onnx_files[(obj, material)]).stat().st_size,
-            )
-            add(obj, f"DeepPRT {material}", "classic_store_float32_bytes", frames * n * n * m * 4)
+    for (obj, model, material), checkpoint in checkpoints.items():
+        m, label = channels[material], f"{model} {material}"
+        frames = sum(len(list(Path(d).glob("*.exr"))) for d in frame_dirs[obj][:2])
+        params = train.load_checkpoint(checkpoint)["extra"]["parameters"]
+        add(obj, label, "parameters", params)
+        add(obj, label, "compression_ratio", frames * n * n * m / params)
+        size = Path(onnx_files[(obj, model, material)]).stat().st_size
+        add(obj, label, "network_file_bytes", size)
+        add(obj, label, "classic_store_float32_bytes", frames * n * n * m * 4)
     for obj in objects:
         exr_bytes = sum(f.stat().st_size for d in frame_dirs[obj] for f in Path(d).glob("*.exr"))
         add(obj, "per-frame EXR (P, N, T, G; float16 transfer)", "bytes_on_disk", exr_bytes)
     return pd.DataFrame(rows)
 
 
-def targets(metrics_table: pd.DataFrame) -> list[Target]:
-    """Per object and material: test SSIM (and on extrapolated frames) at least the target,
-    above MoMoPRT's; the equal-quality speed ratio at least its target."""
+def shipped_rows(onnx_files: dict, model: str) -> pd.DataFrame:
+    """The size of each shipped network file (``onnx_files`` keyed ``(object,
+    material)``), a copy of the shipped variant ``model``'s: model ``"<model> <material>
+    (shipped)"``, metric ``network_file_bytes``."""
+    rows = []
+    for (obj, material), path in onnx_files.items():
+        size = {"network_file_bytes": Path(path).stat().st_size}
+        rows += tidy_rows("prt", obj, f"{model} {material} (shipped)", "compression", size)
+    return pd.DataFrame(rows)
+
+
+def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
+    """Per object and material, of the shipped variant ``model``: test SSIM (and on
+    extrapolated frames) at least the target, above MoMoPRT's; where the paper's form
+    (``DeepPRT``) was trained too (has rows in the table), the shipped variant's test
+    ``rel_l1_radiance`` at most the target fraction of the paper form's; the
+    equal-quality speed ratio at least its target."""
     ssim_target = threshold("prt", "ssim")
     speed_target = threshold("prt", "equal_quality_speedup")
+    versus = threshold("prt", "rel_l1_vs_paper")
+    compare = model != PAPER and bool((metrics_table.model == PAPER).any())
     rows = []
     for dataset in sorted(metrics_table.dataset.unique()):
 
@@ -94,48 +112,63 @@ def targets(metrics_table: pd.DataFrame) -> list[Target]:
         for material in MATERIALS:
             metric = f"ssim_{material}"
             for split in ("test", "test (extrapolated)"):
-                v = get("DeepPRT", split, metric)
+                v = get(model, split, metric)
                 if not math.isnan(v):
-                    check = f"DeepPRT {metric} on {split} >= {ssim_target:g}"
+                    check = f"{model} {metric} on {split} >= {ssim_target:g}"
                     rows.append(Target(dataset, check, v, v >= ssim_target))
-            deep, lin = get("DeepPRT", "test", metric), get("MoMoPRT", "test", metric)
-            check = f"DeepPRT {metric} on test above MoMoPRT's ({lin:.4f})"
+            deep, lin = get(model, "test", metric), get("MoMoPRT", "test", metric)
+            check = f"{model} {metric} on test above MoMoPRT's ({lin:.4f})"
             rows.append(Target(dataset, check, deep, deep > lin))
-        v = get("DeepPRT", "timing", "equal_quality_speedup")
-        check = f"equal-quality speed ratio >= {speed_target:g}x"
+            if compare:
+                metric = f"rel_l1_radiance_{material}"
+                ours, paper = get(model, "test", metric), get(PAPER, "test", metric)
+                check = f"{model} {metric} on test <= {versus:g} x {PAPER}'s ({paper:.4f})"
+                rows.append(Target(dataset, check, ours, bool(ours <= versus * paper)))
+        v = get(model, "timing", "equal_quality_speedup")
+        check = f"{model} equal-quality speed ratio >= {speed_target:g}x"
         rows.append(Target(dataset, check, v, bool(v >= speed_target)))
     return rows
 
 
-def experiment_targets(table: pd.DataFrame) -> list[Target]:
-    """Excluded-expression targets (paper Fig. 6): DeepPRT below MoMoPRT everywhere, and
-    MoMoPRT's error at the far end at least the target multiple of DeepPRT's."""
+def experiment_targets(table: pd.DataFrame, model: str = PAPER) -> list[Target]:
+    """Excluded-expression targets (paper Fig. 6) of the shipped variant ``model``: below
+    MoMoPRT everywhere, and MoMoPRT's error at the far end at least the target multiple
+    of the variant's."""
     sel = table[(table.dataset == "head_excluded") & (table.metric == "l2rgb_diffuse")]
     if sel.empty:
         return []
     wide = sel.pivot(index="x", columns="model", values="value").sort_index()
-    ratio = float(wide["MoMoPRT"].iloc[-1] / wide["DeepPRT"].iloc[-1])
-    below = wide["DeepPRT"] < wide["MoMoPRT"]
+    ratio = float(wide["MoMoPRT"].iloc[-1] / wide[model].iloc[-1])
+    below = wide[model] < wide["MoMoPRT"]
     far = threshold("prt", "excluded_far_ratio")
     return [
         Target(
             "head_excluded",
-            "DeepPRT L2-RGB below MoMoPRT's at every test point",
+            f"{model} L2-RGB below MoMoPRT's at every test point",
             float(below.mean()),
             bool(below.all()),
         ),
         Target(
             "head_excluded",
-            f"MoMoPRT / DeepPRT L2-RGB at the far end >= {far:g}",
+            f"MoMoPRT / {model} L2-RGB at the far end >= {far:g}",
             ratio,
             ratio >= far,
         ),
     ]
 
 
-def target_frame(metrics_table: pd.DataFrame, experiments: list[pd.DataFrame]) -> pd.DataFrame:
-    """Every DeepPRT target (:func:`targets` and :func:`experiment_targets`) as one table."""
-    rows = targets(metrics_table)
+def target_frame(
+    metrics_table: pd.DataFrame,
+    experiments: list[pd.DataFrame],
+    model: str = PAPER,
+    unseen: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Every DeepPRT target of the shipped variant ``model`` (:func:`targets`,
+    :func:`experiment_targets` and, given the unseen-deformation table ``unseen``,
+    :func:`neurender.prt.unseen_scores.targets` against the paper form) as one table."""
+    rows = targets(metrics_table, model)
     for table in experiments:
-        rows += experiment_targets(table)
+        rows += experiment_targets(table, model)
+    if unseen is not None:
+        rows += unseen_scores.targets(unseen, model, PAPER)
     return target_table("prt", rows)

@@ -91,6 +91,14 @@ def _shadowing_loss(model, batch) -> tuple[torch.Tensor, dict[str, float]]:
     return torch.nn.functional.l1_loss(model.shadowing(x), model.encode(x, y)), {}
 
 
+def _shadowing_previews(model, batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """The first three channels of the normalised shadowing term, predicted and true,
+    shown as ``0.5 + z / 4`` (the dilated core's term has unit standard deviation per
+    channel, so +-2 standard deviations span [0, 1]); ``val/loss`` is its L1."""
+    x, y = batch
+    return 0.5 + model.shadowing(x)[:, :3] / 4, 0.5 + model.encode(x, y)[:, :3] / 4
+
+
 def train_local(
     train_split: Split,
     val_split: Split,
@@ -101,6 +109,7 @@ def train_local(
     log_csv: str,
     light: np.ndarray | None = None,
     data_key: str = "",
+    tensorboard: str | None = None,
 ) -> ShadowingTransfer:
     """Train the shadowing variant (:mod:`neurender.prt.local_model`) with the shared loop.
 
@@ -108,6 +117,7 @@ def train_local(
         local_cfg: its architecture and material.
         cfg: training keys (:meth:`neurender.train.TrainConfig.from_stage`) and ``seed``.
         light: ``(K, 3)`` SH light of the glossy targets (needed for glossy).
+        data_key, tensorboard: as in :func:`train_deepprt`.
 
     Returns:
         the trained wrapper with the best validation epoch's weights.
@@ -142,6 +152,8 @@ def train_local(
             "parameters": count_parameters(model),
         },
         data_key=data_key,
+        tensorboard=tensorboard,
+        previews=Previews(_shadowing_previews),
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
     return model.eval()

@@ -4,14 +4,20 @@ from neurender.prt import (
     EXPERIMENTS,
     MATERIALS as PRT_MATERIALS,
     SPLITS as PRT_SPLITS,
+    VARIANTS,
 )
 
 PRT_OBJECTS = list(config["prt"]["objects"])
+#: The DeepPRT variants trained (each per object and material), and the one shipped.
+PRT_VARIANTS = list(config["prt_model"]["variants"])
+PRT_SHIPPED = config["prt_model"]["shipped"]
 PRT_USER_SEQUENCES = config["prt"]["user_sequences"]
 PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()
 PRT_LIGHT = f"results/prt/probes/{config['prt']['light']}_sh.csv"
 PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule")
-PRT_TRAIN_KEYS += ("residual_targets",)
+#: Keys that only one variant's training reads (the shadowing variant's architecture
+#: constants live in neurender.prt.local_model.LocalConfig, not in the config).
+PRT_VARIANT_KEYS = {"paper": ("residual_targets",), "shadowing": ()}
 PRT_TRANSFER_KEYS = ("n_bands", "direction_sets", "ray_offset")
 
 
@@ -20,6 +26,7 @@ wildcard_constraints:
     probe="[A-Za-z0-9_]+",
     split="|".join(PRT_SPLITS),
     material="|".join(PRT_MATERIALS),
+    variant="|".join(VARIANTS),
 
 
 def prt_params(prt_keys=(), model_keys=(), top=(), **extra):
@@ -83,10 +90,38 @@ def prt_benchmark_params():
 
 
 def prt_train_params(wildcards):
-    """What a training job reads, so an edit of an evaluation key never retrains."""
+    """What a training job of one variant reads, so an edit of an evaluation key, or of a
+    key only the other variant reads, never retrains."""
+    keys = PRT_TRAIN_KEYS + PRT_VARIANT_KEYS[wildcards.variant]
     return prt_params(
-        ("n_bands",), PRT_TRAIN_KEYS, ("seed", "device"), material=wildcards.material
+        ("n_bands",),
+        keys,
+        ("seed", "device"),
+        material=wildcards.material,
+        variant=wildcards.variant,
     )
+
+
+def prt_ship_params(wildcards):
+    return {"shipped": PRT_SHIPPED}
+
+
+def prt_variant_files(kind, objects=None, materials=PRT_MATERIALS):
+    """The ``kind`` file (``pt``, ``onnx`` or ``loss.csv``) of every trained variant, per
+    object (``objects``; ``None``: the rule's own ``{object}`` wildcard) and material, in
+    the order object, variant, material."""
+    suffix = "_loss.csv" if kind == "loss.csv" else f".{kind}"
+    # The rule's own wildcard stays a wildcard: expand() turns {{object}} into {object}.
+    where = {} if objects is None else {"object": objects}
+    folder = "{{object}}" if objects is None else "{object}"
+    path = f"results/prt/{folder}/variants/{{variant}}_{{material}}{suffix}"
+    return expand(path, **where, variant=PRT_VARIANTS, material=materials)
+
+
+def prt_shipped_files(wildcards):
+    """The shipped variant's checkpoint and ONNX file of one object and material."""
+    base = f"results/prt/{wildcards.object}/variants/{PRT_SHIPPED}_{wildcards.material}"
+    return {"checkpoint": f"{base}.pt", "onnx": f"{base}.onnx"}
 
 
 def prt_momoprt_params(wildcards):
@@ -101,12 +136,15 @@ def prt_evaluate_params(wildcards):
         "noise_floor_frames",
     )
     model = ("render_resolution", "glossy_exponent", "equal_quality_directions")
+    model += ("variants",)
     return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
 
 
 def prt_model_summary_params():
     return prt_params(
-        ("resolution", "n_bands"), ("equal_quality_directions",), objects=PRT_OBJECTS
+        ("resolution", "n_bands"),
+        ("equal_quality_directions", "variants", "shipped"),
+        objects=PRT_OBJECTS,
     )
 
 
@@ -129,6 +167,11 @@ def prt_unseen_models(wildcards):
         "onnx": [f"{base}/variants/{v}_{m}.onnx" for v, m in pairs],
         "momoprt": [f"{base}/momoprt_{m}.npz" for m in PRT_MATERIALS],
     }
+
+
+def prt_experiment_params(wildcards):
+    """Fig. 6: the test-frame keys and the variants drawn (their files are its inputs)."""
+    return {**prt_test_frame_params(wildcards), "variants": PRT_VARIANTS}
 
 
 def prt_test_frame_params(wildcards):
@@ -190,6 +233,15 @@ def prt_split_files(wildcards, splits=PRT_SPLITS):
 
 def prt_training_files(wildcards):
     return prt_split_files(wildcards, ("train", "val"))
+
+
+def prt_variant_training_files(wildcards):
+    """A variant's training data; the shadowing variant's glossy network also reads the
+    SH light (its analytic unshadowed part is the light's glossy polynomial)."""
+    inputs = prt_training_files(wildcards)
+    if wildcards.variant == "shadowing" and wildcards.material == "glossy":
+        inputs["light"] = PRT_LIGHT
+    return inputs
 
 
 def prt_evaluation_files(wildcards):
