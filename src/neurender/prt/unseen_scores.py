@@ -16,7 +16,9 @@ predictions scored, and its targets.
   PRT of one pose), the same for every frame.
 * Scores per frame and material: SSIM of the rendered images (:mod:`neurender.prt.scores`,
   the camera framing the frame) and the relative L1 of per-vertex radiance under the
-  light, ``sum |R_pred - R_gt| / sum |R_gt|`` over vertices and RGB (:func:`relative_l1`).
+  light, ``sum |R_pred - R_gt| / sum |R_gt|`` over vertices and RGB
+  (:func:`neurender.prt.scores.relative_l1`; the test frames' score is over the rendered
+  images instead).
 """
 
 from __future__ import annotations
@@ -55,11 +57,6 @@ class Case:
     def tag(self) -> str:
         """The ground truth's seed part (and the benchmark script's)."""
         return f"unseen_{self.family}_{self.strength}"
-
-
-def relative_l1(prediction: np.ndarray, reference: np.ndarray) -> float:
-    """``sum |prediction - reference| / sum |reference|`` (any equal shapes)."""
-    return float(np.abs(prediction - reference).sum() / max(np.abs(reference).sum(), 1e-30))
 
 
 def cases(
@@ -158,7 +155,7 @@ def frame_scores(
             ssim = scores.image_ssim(raster.shade(gt), raster.shade(pr), mask)
             metrics = out.setdefault(model, {})
             metrics.setdefault(f"ssim_{material}", []).append(ssim)
-            metrics.setdefault(f"rel_l1_radiance_{material}", []).append(relative_l1(pr, gt))
+            metrics.setdefault(f"rel_l1_radiance_{material}", []).append(scores.relative_l1(pr, gt))
     return {m: {k: np.array(v) for k, v in metrics.items()} for m, metrics in out.items()}
 
 
