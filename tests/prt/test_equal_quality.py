@@ -92,8 +92,15 @@ def test_a_variants_equal_quality_ratio_is_against_the_cheapest_count_reaching_i
     assert value["equal_quality_directions"] == 64
     assert value["equal_quality_speedup"] == pytest.approx(0.4 / 0.002)
     assert value["speedup_vs_reference_gt"] == pytest.approx(8.0 / 0.002)
+    assert value["equal_quality_lower_bound"] == 0.0
+    # Better than every estimate: a lower bound against the most directions.
     above = network_timing_rows("head", "DeepPRT", net, engine_s, 0.995, estimates, 8.0)
     value = {r["metric"]: r["value"] for r in above}
-    assert math.isnan(value["equal_quality_speedup"]) and math.isnan(
-        value["equal_quality_directions"]
-    )
+    assert value["equal_quality_directions"] == 256
+    assert value["equal_quality_speedup"] == pytest.approx(1.6 / 0.002)
+    assert value["equal_quality_lower_bound"] == 1.0
+    # No SSIM to match (no test frames scored): no ratio.
+    unscored = network_timing_rows("head", "DeepPRT", net, engine_s, math.nan, estimates, 8.0)
+    value = {r["metric"]: r["value"] for r in unscored}
+    assert math.isnan(value["equal_quality_speedup"])
+    assert math.isnan(value["equal_quality_directions"])

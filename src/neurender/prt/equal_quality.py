@@ -119,8 +119,10 @@ def network_timing_rows(
 ) -> list[dict]:
     """One variant's timing rows: its time per engine, the speed-up over the reference,
     its SSIM target, and the direction count and equal-quality ratio of the cheapest
-    ray-traced estimate (``directions -> (seconds, SSIM)``) that reaches ``target``
-    (NaN when none does)."""
+    ray-traced estimate (``directions -> (seconds, SSIM)``) that reaches ``target``.
+    When none does (the network is better than every estimate timed), the ratio is taken
+    against the most directions and flagged ``equal_quality_lower_bound = 1``: an
+    estimate of the network's SSIM costs at least that much."""
     net_s = engine_s[net.engine]
     times = {"inference_ms_per_frame": 1000 * net_s}
     times |= {
@@ -128,14 +130,22 @@ def network_timing_rows(
         for engine, s in engine_s.items()
         if engine != net.engine
     }
-    matched = [(d, s) for d, (s, ssim) in sorted(estimates.items()) if ssim >= target]
-    directions, equal = matched[0] if matched else (math.nan, math.nan)
+    ordered = sorted(estimates.items())
+    matched = [(d, s) for d, (s, ssim) in ordered if ssim >= target]
+    bound = not matched and math.isfinite(target)
+    if matched:
+        directions, equal = matched[0]
+    elif bound:
+        directions, equal = ordered[-1][0], ordered[-1][1][0]
+    else:
+        directions, equal = math.nan, math.nan
     values = {
         **times,
         "speedup_vs_reference_gt": reference_s / net_s,
         "equal_quality_ssim_target": target,
         "equal_quality_directions": directions,
         "equal_quality_speedup": equal / net_s,
+        "equal_quality_lower_bound": float(bound),
     }
     return tidy_rows("prt", name, model, "timing", values)
 

@@ -164,9 +164,11 @@ def _equal_quality_panel(ax, timing: pd.DataFrame, model: str, directions: list[
             color=colour,
             label=f"{name}: network, "
             + (
-                f"{ratio:.1f}x at equal SSIM"
-                if math.isfinite(ratio)
-                else "SSIM above every ray-traced count"
+                "no SSIM"
+                if not math.isfinite(ratio)
+                else f">= {ratio:.1f}x (SSIM above every ray-traced count)"
+                if value.get("equal_quality_lower_bound", 0) == 1
+                else f"{ratio:.1f}x at equal SSIM"
             ),
         )
         span += [*ms, value["inference_ms_per_frame"]]

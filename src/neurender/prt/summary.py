@@ -125,7 +125,10 @@ def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
                 check = f"{model} {metric} on test <= {versus:g} x {PAPER}'s ({paper:.4f})"
                 rows.append(Target(dataset, check, ours, bool(ours <= versus * paper)))
         v = get(model, "timing", "equal_quality_speedup")
-        check = f"{model} equal-quality speed ratio >= {speed_target:g}x"
+        bound = get(model, "timing", "equal_quality_lower_bound") == 1
+        # A lower bound that meets the target is a pass: the true ratio is at least it.
+        note = " (a lower bound: its SSIM is above every ray-traced count)" if bound else ""
+        check = f"{model} equal-quality speed ratio >= {speed_target:g}x{note}"
         rows.append(Target(dataset, check, v, bool(v >= speed_target)))
     return rows
 
