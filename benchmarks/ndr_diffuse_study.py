@@ -38,11 +38,13 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import torch
 
-from neurender import io
+from neurender import io, lights, sh
 from neurender.ndr import VARIANTS
+from neurender.ndr import prefiltered as pf
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import NOISE_FLOOR, predict, score
 from neurender.ndr.model import SHADING_INPUT, compose, shading_input
@@ -89,6 +91,27 @@ def dataset(folder: Path, split: str) -> dict[str, str]:
     }
 
 
+def sh_prior_copy(folder: Path, split: str, cfg: dict, out: Path) -> dict[str, str]:
+    """A copy of ``split`` whose ``S_D`` is the prefiltered estimator's (``coarse_shading:
+    prefiltered``, :func:`neurender.ndr.prefiltered.diffuse_shading`: the fixed map's 5-band
+    SH irradiance at ``N``, float64 then stored float32; noise-free) instead of the
+    importance-sampled one; everything else (``S_S`` included) as rendered."""
+    env = lights.procedural_probe(cfg["fixed_probe"], cfg["environment_height"])
+    coefficients = torch.from_numpy(sh.project_latlong(env, pf.SH_BANDS))
+    files = dataset(folder, split)
+    (out / split).mkdir(parents=True)
+    for exr in sorted(Path(files["dir"]).glob("*.exr")):
+        c = io.read_exr(exr)
+        normals = np.stack([c[f"N.{a}"] for a in "XYZ"], -1)
+        s_d = pf.diffuse_shading(torch.from_numpy(normals).double(), coefficients).numpy()
+        s_d = (s_d * (c["mask"][..., None] > 0)).astype(np.float32)
+        c |= {f"S_D.{k}": s_d[..., i] for i, k in enumerate("RGB")}
+        io.write_exr(out / split / exr.name, c)
+    for key in ("manifest", "lighting"):
+        (out / Path(files[key]).name).write_bytes(Path(files[key]).read_bytes())
+    return dataset(out, split)
+
+
 def scored(pred, data: NDRDataset) -> dict[str, float]:
     """``ndr_evaluate``'s scores of a diffuse split (``I_R`` and ``I_D``), split means."""
     b = data.buffers
@@ -97,7 +120,7 @@ def scored(pred, data: NDRDataset) -> dict[str, float]:
     return {k: float(v.mean()) for k, v in values.items() if k.endswith(("I_R", "I_D"))}
 
 
-def run_one(name, epochs, seed, cfg, files, tests, tmp: Path) -> list[dict]:
+def run_one(name, epochs, seed, prior, cfg, files, tests, tmp: Path) -> list[dict]:
     variant, overrides = STUDY[name]
     run_cfg = {**cfg, **overrides, "epochs": epochs, "seed": seed}
     start = time.perf_counter()
@@ -123,7 +146,7 @@ def run_one(name, epochs, seed, cfg, files, tests, tmp: Path) -> list[dict]:
                 "seconds": seconds,
                 "best_epoch": float(history),
             }
-        key = {"variant": name, "epochs": epochs, "seed": seed, "split": split}
+        key = {"variant": name, "S_D": prior, "epochs": epochs, "seed": seed, "split": split}
         rows += [{**key, "metric": k, "value": v} for k, v in values.items()]
     return rows
 
@@ -135,7 +158,7 @@ def train_state(checkpoint: Path) -> int:
     return 1 + losses.index(min(losses))
 
 
-def baselines(tests: dict[str, NDRDataset]) -> list[dict]:
+def baselines(tests: dict[str, NDRDataset], prior: str) -> list[dict]:
     rows = []
     for split, data in tests.items():
         b = data.buffers
@@ -143,18 +166,17 @@ def baselines(tests: dict[str, NDRDataset]) -> list[dict]:
         if "I_D_noisy" in b:
             methods[NOISE_FLOOR] = compose(b["I_D_noisy"], b["I_S_noisy"], b)
         for name, pred in methods.items():
-            rows += [
-                {"variant": name, "epochs": 0, "seed": -1, "split": split, "metric": k, "value": v}
-                for k, v in scored(pred, data).items()
-            ]
+            key = {"variant": name, "S_D": prior, "epochs": 0, "seed": -1, "split": split}
+            rows += [{**key, "metric": k, "value": v} for k, v in scored(pred, data).items()]
     return rows
 
 
 def merge(parts: list[str], out: Path) -> None:
     frames = [io.read_csv(p) for p in parts]
-    table = pd.concat(frames).drop_duplicates(["variant", "epochs", "seed", "split", "metric"])
+    keys = ["variant", "S_D", "epochs", "seed", "split", "metric"]
+    table = pd.concat(frames).fillna({"S_D": "importance"}).drop_duplicates(keys)
     runs = [json.loads(Path(p).with_suffix(".json").read_text()) for p in parts]
-    io.write_csv(out, table.sort_values(["variant", "epochs", "seed", "split", "metric"]))
+    io.write_csv(out, table[[*keys, "value"]].sort_values(keys))
     note = (
         "One process per group of variants, two side by side, each training with one torch "
         "thread at nice 10 on the shared 2-core machine; merged with --merge. Seconds are "
@@ -170,6 +192,12 @@ def main() -> None:
     parser.add_argument("--epochs", nargs="+", type=int, help="budgets (default ndr_model.epochs)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="added to config seed")
     parser.add_argument("--baselines", action="store_true", help="add shading_input, noise floor")
+    parser.add_argument(
+        "--prior",
+        choices=["importance", "sh"],
+        default="importance",
+        help="S_D as rendered (the config's importance sampling) or noise-free from SH",
+    )
     parser.add_argument("--data", default=str(ROOT / "results/ndr"))
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's")
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/ndr_diffuse_study.csv"))
@@ -185,20 +213,25 @@ def main() -> None:
     cfg = {**config["ndr_model"], "seed": config["seed"], "device": "cpu"}
     epochs = args.epochs or [cfg["epochs"]]
     folder = Path(args.data)
-    files = {s: dataset(folder, s) for s in ("diffuse_train", "diffuse_val", "diffuse_test")}
-    erosion = cfg["mask_erosion"]
-    tests = {
-        "test": NDRDataset.from_files(files["diffuse_test"], erosion),
-        "val": NDRDataset.from_files(files["diffuse_val"], erosion),
-    }
-    rows = baselines(tests) if args.baselines else []
+    splits = ("diffuse_train", "diffuse_val", "diffuse_test")
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp_dir:
+        if args.prior == "sh":
+            copy = Path(tmp_dir) / "sh_prior"
+            files = {s: sh_prior_copy(folder, s, config["ndr"], copy) for s in splits}
+        else:
+            files = {s: dataset(folder, s) for s in splits}
+        erosion = cfg["mask_erosion"]
+        tests = {
+            "test": NDRDataset.from_files(files["diffuse_test"], erosion),
+            "val": NDRDataset.from_files(files["diffuse_val"], erosion),
+        }
+        rows = baselines(tests, args.prior) if args.baselines else []
         for e in epochs:
             for seed in args.seeds:
                 for name in args.variants:
                     s = config["seed"] + seed
-                    rows += run_one(name, e, s, cfg, files, tests, Path(tmp_dir))
+                    rows += run_one(name, e, s, args.prior, cfg, files, tests, Path(tmp_dir))
                     io.write_csv(out, pd.DataFrame(rows))
                     print(name, e, seed, [r["value"] for r in rows[-9:]], file=sys.stderr)
     io.write_csv(out, pd.DataFrame(rows))
