@@ -42,10 +42,9 @@ import numpy as np
 import pandas as pd
 import torch
 
-from neurender import io, lights, sh
-from neurender.ndr import VARIANTS
-from neurender.ndr import prefiltered as pf
-from neurender.ndr.buffers import NDRDataset
+from neurender import io
+from neurender.ndr import VARIANTS, data, render
+from neurender.ndr.buffers import NDRDataset, channels
 from neurender.ndr.evaluate import NOISE_FLOOR, predict, score
 from neurender.ndr.model import SHADING_INPUT, compose, shading_input
 from neurender.ndr.training import train_variant
@@ -91,22 +90,28 @@ def dataset(folder: Path, split: str) -> dict[str, str]:
     }
 
 
-def sh_prior_copy(folder: Path, split: str, cfg: dict, out: Path) -> dict[str, str]:
-    """A copy of ``split`` whose ``S_D`` is the prefiltered estimator's (``coarse_shading:
-    prefiltered``, :func:`neurender.ndr.prefiltered.diffuse_shading`: the fixed map's 5-band
-    SH irradiance at ``N``, float64 then stored float32; noise-free) instead of the
-    importance-sampled one; everything else (``S_S`` included) as rendered."""
-    env = lights.procedural_probe(cfg["fixed_probe"], cfg["environment_height"])
-    coefficients = torch.from_numpy(sh.project_latlong(env, pf.SH_BANDS))
+def prefiltered_copy(folder: Path, split: str, cfg: dict, out: Path) -> dict[str, str]:
+    """A copy of ``split`` as the data stage (``cfg``: ``ndr`` with ``seed``) writes it
+    with ``ndr.coarse_shading: prefiltered``: ``S_D`` (the fixed map's 5-band SH
+    irradiance at ``N``, noise-free) and ``S_S`` (split sum) by
+    :func:`neurender.ndr.data.coarse_maps` from each sample's G-buffers, remade from its
+    seed; everything else (Mitsuba's ``I_D``) as rendered."""
+    pf_cfg = {**cfg, "coarse_shading": "prefiltered"}
     files = dataset(folder, split)
     (out / split).mkdir(parents=True)
-    for exr in sorted(Path(files["dir"]).glob("*.exr")):
-        c = io.read_exr(exr)
-        normals = np.stack([c[f"N.{a}"] for a in "XYZ"], -1)
-        s_d = pf.diffuse_shading(torch.from_numpy(normals).double(), coefficients).numpy()
-        s_d = (s_d * (c["mask"][..., None] > 0)).astype(np.float32)
-        c |= {f"S_D.{k}": s_d[..., i] for i, k in enumerate("RGB")}
-        io.write_exr(out / split / exr.name, c)
+    manifest = io.read_csv(files["manifest"], ["sample", "file"])
+    env = None
+    for index, name in zip(manifest["sample"], manifest["file"], strict=True):
+        obj, env, _, _ = data.sample_scene(cfg, split, int(index))
+        g = render.g_buffers(obj, render.camera(cfg["camera_distance"], cfg["fov"]), cfg["width"])
+        c = io.read_exr(Path(files["dir"]) / name)
+        stored = np.stack([c[f"N.{a}"] for a in "XYZ"], -1)
+        if not np.allclose(stored, g["normal"], atol=1e-5):
+            raise ValueError(f"{name}: the remade G-buffers are not the stored sample's")
+        lighting = data.coarse_lighting(pf_cfg, env)
+        s_d, s_s = data.coarse_maps(pf_cfg, g, env, split, int(index), lighting=lighting)
+        c |= channels("S_D", s_d) | channels("S_S", s_s)
+        io.write_exr(out / split / name, c)
     for key in ("manifest", "lighting"):
         (out / Path(files[key]).name).write_bytes(Path(files[key]).read_bytes())
     return dataset(out, split)
@@ -120,7 +125,7 @@ def scored(pred, data: NDRDataset) -> dict[str, float]:
     return {k: float(v.mean()) for k, v in values.items() if k.endswith(("I_R", "I_D"))}
 
 
-def run_one(name, epochs, seed, prior, cfg, files, tests, tmp: Path) -> list[dict]:
+def run_one(name, epochs, seed, shading, cfg, files, tests, tmp: Path) -> list[dict]:
     variant, overrides = STUDY[name]
     run_cfg = {**cfg, **overrides, "epochs": epochs, "seed": seed}
     start = time.perf_counter()
@@ -138,15 +143,21 @@ def run_one(name, epochs, seed, prior, cfg, files, tests, tmp: Path) -> list[dic
     model.eval()
     history = train_state(tmp / f"{name}_{epochs}_{seed}.pt")
     rows = []
-    for split, data in tests.items():
-        values = scored(predict(model, data, torch.device("cpu")), data)
+    for split, split_data in tests.items():
+        values = scored(predict(model, split_data, torch.device("cpu")), split_data)
         if split == "test":
             values |= {
                 "parameters": float(count_parameters(model.net)),
                 "seconds": seconds,
                 "best_epoch": float(history),
             }
-        key = {"variant": name, "S_D": prior, "epochs": epochs, "seed": seed, "split": split}
+        key = {
+            "variant": name,
+            "coarse_shading": shading,
+            "epochs": epochs,
+            "seed": seed,
+            "split": split,
+        }
         rows += [{**key, "metric": k, "value": v} for k, v in values.items()]
     return rows
 
@@ -158,23 +169,29 @@ def train_state(checkpoint: Path) -> int:
     return 1 + losses.index(min(losses))
 
 
-def baselines(tests: dict[str, NDRDataset], prior: str) -> list[dict]:
+def baselines(tests: dict[str, NDRDataset], shading: str) -> list[dict]:
     rows = []
-    for split, data in tests.items():
-        b = data.buffers
+    for split, split_data in tests.items():
+        b = split_data.buffers
         methods = {SHADING_INPUT: shading_input(b)}
         if "I_D_noisy" in b:
             methods[NOISE_FLOOR] = compose(b["I_D_noisy"], b["I_S_noisy"], b)
         for name, pred in methods.items():
-            key = {"variant": name, "S_D": prior, "epochs": 0, "seed": -1, "split": split}
-            rows += [{**key, "metric": k, "value": v} for k, v in scored(pred, data).items()]
+            key = {
+                "variant": name,
+                "coarse_shading": shading,
+                "epochs": 0,
+                "seed": -1,
+                "split": split,
+            }
+            rows += [{**key, "metric": k, "value": v} for k, v in scored(pred, split_data).items()]
     return rows
 
 
 def merge(parts: list[str], out: Path) -> None:
     frames = [io.read_csv(p) for p in parts]
-    keys = ["variant", "S_D", "epochs", "seed", "split", "metric"]
-    table = pd.concat(frames).fillna({"S_D": "importance"}).drop_duplicates(keys)
+    keys = ["variant", "coarse_shading", "epochs", "seed", "split", "metric"]
+    table = pd.concat(frames).fillna({"coarse_shading": "importance"}).drop_duplicates(keys)
     runs = [json.loads(Path(p).with_suffix(".json").read_text()) for p in parts]
     io.write_csv(out, table[[*keys, "value"]].sort_values(keys))
     note = (
@@ -193,10 +210,10 @@ def main() -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="added to config seed")
     parser.add_argument("--baselines", action="store_true", help="add shading_input, noise floor")
     parser.add_argument(
-        "--prior",
-        choices=["importance", "sh"],
+        "--coarse-shading",
+        choices=["importance", "prefiltered"],
         default="importance",
-        help="S_D as rendered (the config's importance sampling) or noise-free from SH",
+        help="S_D, S_S as rendered (ndr.coarse_shading importance) or remade as prefiltered",
     )
     parser.add_argument("--data", default=str(ROOT / "results/ndr"))
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's")
@@ -216,9 +233,10 @@ def main() -> None:
     splits = ("diffuse_train", "diffuse_val", "diffuse_test")
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp_dir:
-        if args.prior == "sh":
-            copy = Path(tmp_dir) / "sh_prior"
-            files = {s: sh_prior_copy(folder, s, config["ndr"], copy) for s in splits}
+        if args.coarse_shading == "prefiltered":
+            copy = Path(tmp_dir) / "prefiltered"
+            data_cfg = {**config["ndr"], "seed": config["seed"], "device": "cpu"}
+            files = {s: prefiltered_copy(folder, s, data_cfg, copy) for s in splits}
         else:
             files = {s: dataset(folder, s) for s in splits}
         erosion = cfg["mask_erosion"]
@@ -226,15 +244,21 @@ def main() -> None:
             "test": NDRDataset.from_files(files["diffuse_test"], erosion),
             "val": NDRDataset.from_files(files["diffuse_val"], erosion),
         }
-        rows = baselines(tests, args.prior) if args.baselines else []
+        rows = baselines(tests, args.coarse_shading) if args.baselines else []
         for e in epochs:
             for seed in args.seeds:
                 for name in args.variants:
                     s = config["seed"] + seed
-                    rows += run_one(name, e, s, args.prior, cfg, files, tests, Path(tmp_dir))
+                    rows += run_one(
+                        name, e, s, args.coarse_shading, cfg, files, tests, Path(tmp_dir)
+                    )
                     io.write_csv(out, pd.DataFrame(rows))
+                    write_sidecar(out, state, started, epochs, config, cfg, args.variants)
                     print(name, e, seed, [r["value"] for r in rows[-9:]], file=sys.stderr)
-    io.write_csv(out, pd.DataFrame(rows))
+
+
+def write_sidecar(out: Path, state, started, epochs, config, cfg, names) -> None:
+    """The run's ``.json`` beside ``out`` (rewritten after every variant)."""
     sidecar = {
         "command": " ".join(["python", *sys.argv]),
         **state,
@@ -247,7 +271,7 @@ def main() -> None:
             "ndr_model": cfg,
         },
         "variants": {
-            n: {**dataclasses.asdict(STUDY[n][0]), "overrides": STUDY[n][1]} for n in args.variants
+            n: {**dataclasses.asdict(STUDY[n][0]), "overrides": STUDY[n][1]} for n in names
         },
     }
     with io.atomic_path(out.with_suffix(".json")) as tmp_path:
