@@ -1,3 +1,5 @@
+import dataclasses
+
 import pytest
 import torch
 
@@ -143,3 +145,30 @@ def test_a_variant_is_built_only_from_the_keys_it_uses(name):
     assert ("widths" in arch) == (variant.arch == "ndr")
     model = NDRModel(variant, **arch)
     assert model.residual == variant.uses_prior
+
+
+def test_the_specular_decoder_changes_nothing_on_diffuse_data():
+    """On the diffuse data (``A_S = 0``; the loss leaves ``I_S`` out) ``ndr_diffuse``'s
+    specular decoder gets no gradient, and the network without it, built under the same
+    seed, predicts the same ``I_R`` before and after a training step (why the study's
+    ``ndr_diffuse-decoder_I_S`` scores exactly as ``ndr_diffuse``)."""
+    two = VARIANTS["ndr_diffuse"]
+    one = dataclasses.replace(two, targets=("I_D",), decoders=1)
+    batch = _batch()
+    batch["A_S"] = batch["I_S"] = torch.zeros_like(batch["A_S"])
+    outputs = []
+    for variant in (two, one):
+        torch.manual_seed(0)
+        model = NDRModel(variant, **architecture(variant, SMALL))
+        optimizer = torch.optim.Adam(model.parameters(), lr=1e-2)
+        before = model(batch)["I_R"].detach()
+        loss, _, _ = loss_terms(model, batch)
+        loss.backward()
+        if variant is two:
+            specular = list(model.net.decoders[1].parameters())
+            assert all(p.grad is None or not p.grad.any() for p in specular)
+        optimizer.step()
+        outputs.append((before, model.eval()(batch)["I_R"].detach()))
+    for a, b in zip(*outputs, strict=True):
+        torch.testing.assert_close(a, b)
+    assert not torch.allclose(outputs[0][0], outputs[0][1])  # the step did train
