@@ -74,6 +74,18 @@ STUDY: dict[str, tuple[Variant, dict]] = {
         {},
     ),
     "ndr_diffuse_inputs_N_D": (dataclasses.replace(_NDR, inputs=("N", "D")), {}),
+    # NDR with its specular half skipped for a material of zero specular albedo: no R, S_S
+    # inputs (the roughness and shading of a lobe that is not there), no I_S decoder.
+    "ndr_diffuse-specular": (
+        dataclasses.replace(_NDR, inputs=("N", "D", "S_D"), targets=("I_D",), decoders=1),
+        {},
+    ),
+    "ndr_diffuse-specular-sh": (
+        dataclasses.replace(
+            _NDR, inputs=("N", "D", "S_D"), targets=("I_D",), decoders=1, light=False
+        ),
+        {},
+    ),
     "real_shading+sh": (dataclasses.replace(_RS, light=True), {}),
     "real_shading+two_decoders": (
         dataclasses.replace(_RS, targets=("I_D", "I_S"), decoders=2),

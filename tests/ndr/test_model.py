@@ -172,3 +172,20 @@ def test_the_specular_decoder_changes_nothing_on_diffuse_data():
     for a, b in zip(*outputs, strict=True):
         torch.testing.assert_close(a, b)
     assert not torch.allclose(outputs[0][0], outputs[0][1])  # the step did train
+
+
+def test_a_residual_builds_only_on_the_coarse_maps_it_is_given():
+    """Without ``S_S`` among the inputs only ``I_D`` keeps its prior: with zero heads the
+    network renders ``S_D`` exactly and no change of ``S_S`` reaches it."""
+    variant = dataclasses.replace(
+        VARIANTS["ndr_diffuse"], inputs=("N", "D", "S_D"), targets=("I_D",), decoders=1
+    )
+    assert variant.prior_targets == ("I_D",)
+    model = NDRModel(variant, **architecture(variant, SMALL)).eval()
+    torch.nn.init.zeros_(model.net.decoders[0].head.weight)
+    torch.nn.init.zeros_(model.net.decoders[0].head.bias)
+    batch = _batch()
+    out = model(batch)
+    torch.testing.assert_close(out["I_D"], batch["S_D"], rtol=1e-3, atol=1e-4)
+    other = model({**batch, "S_S": batch["S_S"] * 5})
+    torch.testing.assert_close(other["I_D"], out["I_D"])
