@@ -12,13 +12,20 @@ and ``I_D`` within the eroded mask against the clean 512-spp references) on the 
 test split and, to choose between designs without looking at the test set, on the val
 split (against its 64-spp renders). Rows ``shading_input`` and ``noise floor`` are the
 untrained coarse shading and an independent 64-spp render, as in ``results/ndr/metrics.csv``.
+``--coarse-shading prefiltered`` trains and scores on a copy of the data whose ``S_D`` and
+``S_S`` are remade as ``ndr.coarse_shading: prefiltered`` would make them (same objects,
+G-buffers and Mitsuba targets; :func:`prefiltered_copy`); ``--seeds`` are added to the
+config's seed (initialisation and batch order). The committed rows with ``coarse_shading``
+``S_D prefiltered, S_S importance`` come from this script at commit 08e5191 (``--prior sh``:
+``S_D`` replaced by the map's SH irradiance only); the conclusions are in
+``docs/methods/ndr.md`` ("NDR on diffuse data against Real Shading").
 
 Writes ``--out`` (default ``benchmarks/results/ndr_diffuse_study.csv``; tidy: variant,
-epochs, seed, split, metric, value; metrics ``dssim_I_R``, ``dssim_I_D``, ``l2_I_R``,
-``l2_I_D``, ``parameters``, ``seconds`` (wall seconds of the training, one torch thread on
-the shared machine) and ``best_epoch``) and a sidecar ``.json`` with the command, commit,
-config and what each variant is. Needs the diffuse data in ``results/ndr`` (or
-``--data``)::
+coarse_shading, epochs, seed, split, metric, value; metrics ``dssim_I_R``, ``dssim_I_D``,
+``l2_I_R``, ``l2_I_D``, ``parameters``, ``seconds`` (wall seconds of the training, one
+torch thread on the shared machine) and ``best_epoch``) and a sidecar ``.json`` with the
+command, commit, config and what each variant is. Needs the diffuse data in
+``results/ndr`` (or ``--data``)::
 
     nice -n 10 snakemake --cores 2 results/ndr/diffuse_{train,val,test}_manifest.csv
     nice -n 10 python benchmarks/ndr_diffuse_study.py --variants real_shading ndr_diffuse \\
