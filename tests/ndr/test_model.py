@@ -1,3 +1,5 @@
+import dataclasses
+
 import pytest
 import torch
 
@@ -143,3 +145,47 @@ def test_a_variant_is_built_only_from_the_keys_it_uses(name):
     assert ("widths" in arch) == (variant.arch == "ndr")
     model = NDRModel(variant, **arch)
     assert model.residual == variant.uses_prior
+
+
+def test_the_specular_decoder_changes_nothing_on_diffuse_data():
+    """On the diffuse data (``A_S = 0``; the loss leaves ``I_S`` out) ``ndr_diffuse``'s
+    specular decoder gets no gradient, and the network without it, built under the same
+    seed, predicts the same ``I_R`` before and after a training step (why the study's
+    ``ndr_diffuse-decoder_I_S`` scores exactly as ``ndr_diffuse``)."""
+    two = VARIANTS["ndr_diffuse"]
+    one = dataclasses.replace(two, targets=("I_D",), decoders=1)
+    batch = _batch()
+    batch["A_S"] = batch["I_S"] = torch.zeros_like(batch["A_S"])
+    outputs = []
+    for variant in (two, one):
+        torch.manual_seed(0)
+        model = NDRModel(variant, **architecture(variant, SMALL))
+        optimizer = torch.optim.Adam(model.parameters(), lr=1e-2)
+        before = model(batch)["I_R"].detach()
+        loss, _, _ = loss_terms(model, batch)
+        loss.backward()
+        if variant is two:
+            specular = list(model.net.decoders[1].parameters())
+            assert all(p.grad is None or not p.grad.any() for p in specular)
+        optimizer.step()
+        outputs.append((before, model.eval()(batch)["I_R"].detach()))
+    for a, b in zip(*outputs, strict=True):
+        torch.testing.assert_close(a, b)
+    assert not torch.allclose(outputs[0][0], outputs[0][1])  # the step did train
+
+
+def test_a_residual_builds_only_on_the_coarse_maps_it_is_given():
+    """Without ``S_S`` among the inputs only ``I_D`` keeps its prior: with zero heads the
+    network renders ``S_D`` exactly and no change of ``S_S`` reaches it."""
+    variant = dataclasses.replace(
+        VARIANTS["ndr_diffuse"], inputs=("N", "D", "S_D"), targets=("I_D",), decoders=1
+    )
+    assert variant.prior_targets == ("I_D",)
+    model = NDRModel(variant, **architecture(variant, SMALL)).eval()
+    torch.nn.init.zeros_(model.net.decoders[0].head.weight)
+    torch.nn.init.zeros_(model.net.decoders[0].head.bias)
+    batch = _batch()
+    out = model(batch)
+    torch.testing.assert_close(out["I_D"], batch["S_D"], rtol=1e-3, atol=1e-4)
+    other = model({**batch, "S_S": batch["S_S"] * 5})
+    torch.testing.assert_close(other["I_D"], out["I_D"])

@@ -138,7 +138,8 @@ class NDRModel(torch.nn.Module):
             out = (self.net(x) + 1) / 2
             return {t: out[:, 3 * i : 3 * i + 3].clamp(0, 1) for i, t in enumerate(v.targets)}
         logits = self.net(x, batch["light"] if v.light else None)
-        prior = shading_input(batch) if self.residual else {}
+        coarse = shading_input(batch) if self.residual else {}
+        prior = {t: coarse[t] for t in v.prior_targets}
         return {
             t: torch.sigmoid(
                 logits[:, 3 * i : 3 * i + 3] + (_logit(reinhard(prior[t])) if t in prior else 0)

@@ -81,19 +81,24 @@ def train_variant(
     log_csv: str,
     data_key: str = "",
     tensorboard: str | None = None,
-) -> None:
+    variant: Variant | None = None,
+) -> NDRModel:
     """Train variant ``name`` on a split's ``train_files`` and ``val_files`` (each ``dir``,
     ``manifest``, ``lighting``); ``data_key`` fingerprints them, ``tensorboard`` is the
-    marker of the run's event folder (see :func:`neurender.train.fit`).
+    marker of the run's event folder (see :func:`neurender.train.fit`). ``variant``: the
+    network to train, by default ``VARIANTS[name]``; a study passes its own (an ablation
+    outside the table, stored under ``name``, which :func:`~neurender.ndr.model.load_model`
+    cannot rebuild). Returns the model with the best validation epoch's weights.
 
     ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
     ``lr_schedule``, ``epochs`` (the same for every variant), the variant's
     :func:`~neurender.ndr.model.architecture` keys and, for ``pix2pix``, ``ndf``,
     ``l1_weight`` and ``gan_weight``.
     """
-    if name not in VARIANTS:
-        raise KeyError(f"NDR variant {name!r}: expected one of {sorted(VARIANTS)}")
-    variant = VARIANTS[name]
+    if variant is None:
+        if name not in VARIANTS:
+            raise KeyError(f"NDR variant {name!r}: expected one of {sorted(VARIANTS)}")
+        variant = VARIANTS[name]
     torch.manual_seed(cfg["seed"])
     erosion, limit = cfg["mask_erosion"], io.IN_MEMORY_LIMIT_BYTES
     train_set = NDRDataset.from_files(train_files, erosion, max_bytes=limit)
@@ -119,3 +124,4 @@ def train_variant(
         tensorboard=tensorboard,
         previews=Previews(preview_images, dssim_metric),
     )
+    return model

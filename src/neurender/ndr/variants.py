@@ -11,6 +11,8 @@ import dataclasses
 
 #: The shading maps a network can be given as its coarse-shading prior.
 SHADING_GROUPS = ("S_D", "S_S")
+#: The coarse shading each predicted map's prior is made of (``I_R`` by paper eq. 2).
+PRIOR_OF = {"I_D": ("S_D",), "I_S": ("S_S",), "I_R": SHADING_GROUPS}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,10 +39,17 @@ class Variant:
     description: str = ""
 
     @property
+    def prior_targets(self) -> tuple[str, ...]:
+        """The targets a residual may correct: those whose coarse counterpart
+        (:data:`PRIOR_OF`) the network sees, so that none builds on a map it is not given."""
+        if not self.residual:
+            return ()
+        return tuple(t for t in self.targets if set(PRIOR_OF[t]) <= set(self.inputs))
+
+    @property
     def uses_prior(self) -> bool:
-        """Whether ``shading_residual`` applies: only a variant that sees the coarse
-        shading may build on it."""
-        return self.residual and set(SHADING_GROUPS) <= set(self.inputs)
+        """Whether ``shading_residual`` applies (some target has its prior as an input)."""
+        return bool(self.prior_targets)
 
 
 _NDR_INPUTS = ("N", "R", "D", "S_D", "S_S")
