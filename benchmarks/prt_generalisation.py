@@ -63,7 +63,15 @@ from neurender.nn.unet import count_parameters
 from neurender.plan import load_config
 from neurender.prt import frames, jobs, unseen, unseen_scores
 from neurender.prt.local_model import LocalConfig, ShadowingTransfer
-from neurender.prt.model import DeepPRT, export_deepprt, load_transfer_module, raw_inputs
+from neurender.prt.model import (
+    DeepPRT,
+    Normalisation,
+    TransferNetwork,
+    build_network,
+    export_deepprt,
+    load_transfer_module,
+    raw_inputs,
+)
 from neurender.prt.training import train_deepprt, train_local
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -232,11 +240,19 @@ def main() -> None:
         if args.time_only:  # the cost of a shape, not of a training: random weights and inputs
             start = time.perf_counter()
             torch.manual_seed(config["seed"])
-            fresh = ShadowingTransfer(shadowing_cfg).eval()
-            x = untrained_frames(prt["resolution"], config["seed"])
-            export_onnx(fresh, torch.from_numpy(x), tmp / "fresh.onnx", rtol=1e-4)
-            timing = network_timing(fresh, tmp / "fresh.onnx", x)
-            add("untrained", "shadowing", "timing", 0.0, timing, epochs=0)
+            n, c = prt["resolution"], shadowing_cfg.out_channels
+            fresh = {"shadowing": ShadowingTransfer(shadowing_cfg)}
+            if not args.skip_paper:  # the paper's form with an identity normalisation
+                norm = Normalisation(
+                    np.zeros(3), np.ones(3), np.zeros((c, n, n)), np.ones((c, 1, 1))
+                )
+                net = build_network(c, model_cfg["widths"], model_cfg["blocks"])
+                fresh["paper"] = TransferNetwork(net, norm)
+            x = untrained_frames(n, config["seed"])
+            for model, module in fresh.items():
+                onnx_file = tmp / f"{model}.onnx"
+                export_onnx(module.eval(), torch.from_numpy(x), onnx_file, rtol=1e-4)
+                add("untrained", model, "timing", 0.0, network_timing(module, onnx_file, x), 0)
             seconds["time_only"] = time.perf_counter() - start
             io.write_csv(out, pd.DataFrame(rows))
             print(pd.DataFrame(rows).to_string(), flush=True)
