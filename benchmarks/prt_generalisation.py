@@ -33,10 +33,11 @@ the shadowing variant's :class:`~neurender.prt.local_model.LocalConfig`, ``--ski
 trains only that variant. Every trained network is exported as the pipeline ships it
 (:func:`neurender.prt.model.export_deepprt`) and timed: rows with ``family = timing``
 (strength 0), metrics ``onnx_ms_per_frame`` and ``pytorch_ms_per_frame`` (median of one
-64x64 frame, batch 1, one thread) and ``parameters``. ``--time-only`` times a freshly
-initialised network of that shape instead (object ``untrained``, epochs 0; the cost of a
-convolution does not depend on its weights) without data or training. Every row carries
-the run's ``shadowing_width`` and ``shadowing_dilations``::
+64x64 frame, batch 1, one thread) and ``parameters``. ``--time-only`` times freshly
+initialised networks of every ``--width`` (and the paper's form unless ``--skip-paper``;
+object ``untrained``, epochs 0; the cost of a convolution does not depend on its weights)
+without data or training, interleaved over ``--rounds`` rounds, the median kept. Every
+row carries the run's ``shadowing_width`` and ``shadowing_dilations``::
 
     nice -n 10 python benchmarks/prt_generalisation.py --objects head --epochs 14 \
         --skip-paper --width 24 --strengths 0.25 0.5 1.0 --per-strength 1 --out /tmp/w24_head.csv
@@ -45,6 +46,7 @@ the run's ``shadowing_width`` and ``shadowing_dilations``::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import subprocess
@@ -118,6 +120,12 @@ def untrained_frames(n: int, seed: int) -> np.ndarray:
     return np.concatenate([positions, normals], axis=1).astype(np.float32)
 
 
+def tidy(rows: list[dict]) -> pd.DataFrame:
+    """The rows as a table; ``shadowing_width`` an integer, empty for the paper form's
+    timing (``--time-only``), which has none."""
+    return pd.DataFrame(rows).astype({"shadowing_width": "Int64"})
+
+
 def frame_scores(split: frames.Split, preds: dict, light: np.ndarray, cfg: dict) -> dict:
     """``model -> metric -> (F,)``: relative L1 of diffuse radiance and diffuse SSIM
     (:func:`neurender.prt.unseen_scores.frame_scores`, under this study's names)."""
@@ -154,7 +162,10 @@ def merge(csvs: list[str], out: Path) -> None:
         meta = json.loads(Path(csv).with_suffix(".json").read_text())
         meta["command"] = meta["command"].split(" --out ")[0]
         runs.append(meta)
-    io.write_csv(out, pd.concat(parts, ignore_index=True))
+    table = pd.concat(parts, ignore_index=True)
+    if "shadowing_width" in table:  # runs of this script before --width have none
+        table = table.astype({"shadowing_width": "Int64"})
+    io.write_csv(out, table)
     note = (
         "One run per object, budget and shadowing width (two runs side by side, each one "
         "torch thread, niced, on the shared 2-core machine; each run's command says its "
@@ -175,7 +186,13 @@ def main() -> None:
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/prt_generalisation.csv"))
     parser.add_argument("--merge", nargs="+", help="merge these runs' CSVs (and sidecars) only")
     default = LocalConfig(n_bands=1, widths=(), blocks=1)  # the variant's own constants
-    parser.add_argument("--width", type=int, default=default.width, help="shadowing: channels")
+    parser.add_argument(
+        "--width",
+        nargs="+",
+        type=int,
+        default=[default.width],
+        help="shadowing: channels (several only with --time-only)",
+    )
     parser.add_argument(
         "--dilations", nargs="+", type=int, default=list(default.dilations), help="shadowing"
     )
@@ -183,14 +200,21 @@ def main() -> None:
     parser.add_argument(
         "--time-only",
         action="store_true",
-        help="only time a freshly initialised shadowing network (no data, no training)",
+        help="only time freshly initialised networks of every --width (no data, no training)",
+    )
+    parser.add_argument(
+        "--rounds", type=int, default=5, help="--time-only: interleaved timings, median kept"
     )
     args = parser.parse_args()
     if args.merge:
         merge(args.merge, Path(args.out))
         return
-    if args.width < 1 or not args.dilations or min(args.dilations) < 1:
+    if min(args.width) < 1 or not args.dilations or min(args.dilations) < 1:
         parser.error(f"--width {args.width} --dilations {args.dilations}: expected integers >= 1")
+    if len(args.width) > 1 and not args.time_only:
+        parser.error(f"--width {args.width}: one width per training run (several: --time-only)")
+    if args.rounds < 1:
+        parser.error(f"--rounds {args.rounds}: expected at least 1")
     torch.set_num_threads(1)
     commit = subprocess.run(  # at the start: the code that measured
         ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False
@@ -208,7 +232,7 @@ def main() -> None:
         n_bands=prt["n_bands"],
         widths=model_cfg["widths"],
         blocks=model_cfg["blocks"],
-        width=args.width,
+        width=args.width[0],
         dilations=tuple(args.dilations),
     )
     dilations = "-".join(map(str, shadowing_cfg.dilations))
@@ -219,14 +243,14 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
 
-    def add(name, model, family, strength, values, epochs=args.epochs):
+    def add(name, model, family, strength, values, epochs=args.epochs, width=args.width[0]):
         for metric, v in values.items():
             rows.append(
                 {
                     "object": name,
                     "epochs": epochs,
-                    "shadowing_width": shadowing_cfg.width,
-                    "shadowing_dilations": dilations,
+                    "shadowing_width": width,
+                    "shadowing_dilations": None if width is None else dilations,
                     "model": model,
                     "family": family,
                     "strength": strength,
@@ -241,21 +265,29 @@ def main() -> None:
             start = time.perf_counter()
             torch.manual_seed(config["seed"])
             n, c = prt["resolution"], shadowing_cfg.out_channels
-            fresh = {"shadowing": ShadowingTransfer(shadowing_cfg)}
+            fresh = {  # (model, width) -> network; the paper's form has no shadowing width
+                ("shadowing", w): ShadowingTransfer(dataclasses.replace(shadowing_cfg, width=w))
+                for w in args.width
+            }
             if not args.skip_paper:  # the paper's form with an identity normalisation
                 norm = Normalisation(
                     np.zeros(3), np.ones(3), np.zeros((c, n, n)), np.ones((c, 1, 1))
                 )
                 net = build_network(c, model_cfg["widths"], model_cfg["blocks"])
-                fresh["paper"] = TransferNetwork(net, norm)
+                fresh[("paper", None)] = TransferNetwork(net, norm)
             x = untrained_frames(n, config["seed"])
-            for model, module in fresh.items():
-                onnx_file = tmp / f"{model}.onnx"
-                export_onnx(module.eval(), torch.from_numpy(x), onnx_file, rtol=1e-4)
-                add("untrained", model, "timing", 0.0, network_timing(module, onnx_file, x), 0)
+            for (model, w), module in fresh.items():
+                export_onnx(module.eval(), torch.from_numpy(x), tmp / f"{model}{w}.onnx", rtol=1e-4)
+            timings = {key: [] for key in fresh}
+            for _ in range(args.rounds):  # interleaved: a change of the machine's load hits all
+                for (model, w), module in fresh.items():
+                    timings[(model, w)].append(network_timing(module, tmp / f"{model}{w}.onnx", x))
+            for (model, w), per_round in timings.items():
+                median = pd.DataFrame(per_round).median().to_dict()
+                add("untrained", model, "timing", 0.0, median, epochs=0, width=w)
             seconds["time_only"] = time.perf_counter() - start
-            io.write_csv(out, pd.DataFrame(rows))
-            print(pd.DataFrame(rows).to_string(), flush=True)
+            io.write_csv(out, tidy(rows))
+            print(tidy(rows).to_string(), flush=True)
         for name in [] if args.time_only else args.objects:
             start = time.perf_counter()
             gim, seq = build_object(name, config, tmp)
@@ -336,7 +368,7 @@ def main() -> None:
                 for model, values in frame_scores(data, preds, light, model_cfg).items():
                     add(name, model, family, strength, values)
             seconds[f"{name}_score"] = time.perf_counter() - start
-            table = pd.DataFrame(rows)
+            table = tidy(rows)
             io.write_csv(out, table)  # after every object: a partial run keeps what it measured
             print(
                 table[(table.object == name) & (table.metric == "rel_l1_diffuse")]
