@@ -27,12 +27,28 @@ outside CI. Run with ``nice -n 15`` (torch uses one thread)::
     nice -n 15 python benchmarks/prt_generalisation.py --epochs 8
 
 The committed CSV merges runs of one object each (``--out`` per run, then ``--merge``).
+
+Cost and width (``benchmarks/results/prt_width.csv``): ``--width`` and ``--dilations`` set
+the shadowing variant's :class:`~neurender.prt.local_model.LocalConfig`, ``--skip-paper``
+trains only that variant. Every trained network is exported as the pipeline ships it
+(:func:`neurender.prt.model.export_deepprt`) and timed: rows with ``family = timing``
+(strength 0), metrics ``onnx_ms_per_frame`` and ``pytorch_ms_per_frame`` (median of one
+64x64 frame, batch 1, one thread) and ``parameters``. ``--time-only`` times freshly
+initialised networks of every ``--width`` (and the paper's form unless ``--skip-paper``;
+object ``untrained``, epochs 0; the cost of a convolution does not depend on its weights)
+without data or training, interleaved over ``--rounds`` rounds, the median kept. Every
+row carries the run's ``shadowing_width`` and ``shadowing_dilations``::
+
+    nice -n 10 python benchmarks/prt_generalisation.py --objects head --epochs 14 \
+        --skip-paper --width 24 --strengths 0.25 0.5 1.0 --per-strength 1 --out /tmp/w24_head.csv
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -44,30 +60,70 @@ import pandas as pd
 import torch
 
 from neurender import io, lights, sh
+from neurender.nn.inference import engine_milliseconds, export_onnx
+from neurender.nn.unet import count_parameters
 from neurender.plan import load_config
 from neurender.prt import frames, jobs, unseen, unseen_scores
-from neurender.prt.local_model import LocalConfig
-from neurender.prt.model import DeepPRT, raw_inputs
+from neurender.prt.local_model import LocalConfig, ShadowingTransfer
+from neurender.prt.model import (
+    DeepPRT,
+    Normalisation,
+    TransferNetwork,
+    build_network,
+    export_deepprt,
+    load_transfer_module,
+    raw_inputs,
+)
 from neurender.prt.training import train_deepprt, train_local
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def predictions(
-    data: frames.Split, paper: DeepPRT, local, mean_split: frames.Split, n_bands: int
+    data: frames.Split, paper: DeepPRT | None, local, mean_split: frames.Split, n_bands: int
 ) -> dict[tuple[str, str], np.ndarray]:
-    """``(model, "diffuse") -> (F, K, n, n)`` diffuse transfer of every model and baseline."""
+    """``(model, "diffuse") -> (F, K, n, n)`` diffuse transfer of every model and baseline
+    (no ``paper`` entry when ``paper`` is None, ``--skip-paper``)."""
     with torch.no_grad():
         x = torch.from_numpy(raw_inputs(data))
         shadowing = np.concatenate([local(x[i : i + 8]).numpy() for i in range(0, len(x), 8)])
+    paper_pred = {} if paper is None else {("paper", "diffuse"): paper.predict(data)}
     return {
-        ("paper", "diffuse"): paper.predict(data),
+        **paper_pred,
         ("shadowing", "diffuse"): shadowing,
         ("unshadowed", "diffuse"): unseen.unshadowed_baseline(data.positions, n_bands),
         ("static", "diffuse"): unseen.static_baseline(
             mean_split.targets("diffuse")[0], len(data.positions)
         ),
     }
+
+
+def network_timing(module: torch.nn.Module, onnx_file: Path, frame: np.ndarray) -> dict:
+    """Cost of a network exported to ``onnx_file``: median milliseconds of one ``(1, 6, n, n)``
+    frame (batch 1) in ONNX Runtime and in PyTorch, one thread each
+    (:func:`neurender.nn.inference.engine_milliseconds`), and its parameter count."""
+    ms = engine_milliseconds(module, onnx_file, (torch.from_numpy(frame[:1]),), threads=1)
+    return {
+        "onnx_ms_per_frame": ms["onnxruntime"],
+        "pytorch_ms_per_frame": ms["pytorch"],
+        "parameters": count_parameters(module),
+    }
+
+
+def untrained_frames(n: int, seed: int) -> np.ndarray:
+    """Two random raw P and N frames ``(2, 6, n, n)`` (positions in [-1, 1], unit normals):
+    the input of a timing that does not depend on the data (nor on the weights)."""
+    rng = np.random.default_rng(seed)
+    positions = rng.uniform(-1, 1, (2, 3, n, n))
+    normals = rng.normal(size=(2, 3, n, n))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.concatenate([positions, normals], axis=1).astype(np.float32)
+
+
+def tidy(rows: list[dict]) -> pd.DataFrame:
+    """The rows as a table; ``shadowing_width`` an integer, empty for the paper form's
+    timing (``--time-only``), which has none."""
+    return pd.DataFrame(rows).astype({"shadowing_width": "Int64"})
 
 
 def frame_scores(split: frames.Split, preds: dict, light: np.ndarray, cfg: dict) -> dict:
@@ -98,18 +154,23 @@ def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
 
 
 def merge(csvs: list[str], out: Path) -> None:
-    """One CSV and sidecar from several runs' (e.g. one object each, run side by side)."""
+    """One CSV and sidecar from several runs' (e.g. one object and width each, run side by
+    side)."""
     parts, runs = [], []
     for csv in csvs:
         parts.append(pd.read_csv(csv))
         meta = json.loads(Path(csv).with_suffix(".json").read_text())
         meta["command"] = meta["command"].split(" --out ")[0]
         runs.append(meta)
-    io.write_csv(out, pd.concat(parts, ignore_index=True))
+    table = pd.concat(parts, ignore_index=True)
+    if "shadowing_width" in table:  # runs of this script before --width have none
+        table = table.astype({"shadowing_width": "Int64"})
+    io.write_csv(out, table)
     note = (
-        "One run per object and budget (the objects' runs side by side, each one torch "
-        "thread at nice 15 on the shared 2-core machine), merged with --merge. Seconds are "
-        "wall seconds under that sharing."
+        "One run per object, budget and shadowing width (two runs side by side, each one "
+        "torch thread, niced, on the shared 2-core machine; each run's command says its "
+        "nice), merged with --merge. Seconds and milliseconds are wall times under that "
+        "sharing."
     )
     with io.atomic_path(out.with_suffix(".json")) as tmp_path:
         tmp_path.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
@@ -124,10 +185,36 @@ def main() -> None:
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's (smoke)")
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/prt_generalisation.csv"))
     parser.add_argument("--merge", nargs="+", help="merge these runs' CSVs (and sidecars) only")
+    default = LocalConfig(n_bands=1, widths=(), blocks=1)  # the variant's own constants
+    parser.add_argument(
+        "--width",
+        nargs="+",
+        type=int,
+        default=[default.width],
+        help="shadowing: channels (several only with --time-only)",
+    )
+    parser.add_argument(
+        "--dilations", nargs="+", type=int, default=list(default.dilations), help="shadowing"
+    )
+    parser.add_argument("--skip-paper", action="store_true", help="train the shadowing only")
+    parser.add_argument(
+        "--time-only",
+        action="store_true",
+        help="only time freshly initialised networks of every --width (no data, no training)",
+    )
+    parser.add_argument(
+        "--rounds", type=int, default=5, help="--time-only: interleaved timings, median kept"
+    )
     args = parser.parse_args()
     if args.merge:
         merge(args.merge, Path(args.out))
         return
+    if min(args.width) < 1 or not args.dilations or min(args.dilations) < 1:
+        parser.error(f"--width {args.width} --dilations {args.dilations}: expected integers >= 1")
+    if len(args.width) > 1 and not args.time_only:
+        parser.error(f"--width {args.width}: one width per training run (several: --time-only)")
+    if args.rounds < 1:
+        parser.error(f"--rounds {args.rounds}: expected at least 1")
     torch.set_num_threads(1)
     commit = subprocess.run(  # at the start: the code that measured
         ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False
@@ -142,8 +229,13 @@ def main() -> None:
     # The variant's config keys from the same config (its dilated core uses neither widths
     # nor blocks; they are stored with it).
     shadowing_cfg = LocalConfig(
-        n_bands=prt["n_bands"], widths=model_cfg["widths"], blocks=model_cfg["blocks"]
+        n_bands=prt["n_bands"],
+        widths=model_cfg["widths"],
+        blocks=model_cfg["blocks"],
+        width=args.width[0],
+        dilations=tuple(args.dilations),
     )
+    dilations = "-".join(map(str, shadowing_cfg.dilations))
     train_cfg = {**model_cfg, "seed": config["seed"], "epochs": args.epochs, "device": "cpu"}
     image = lights.procedural_probe(prt["light"], prt["probe_height"])
     light = sh.project_latlong(image, prt["n_bands"])
@@ -151,12 +243,14 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
 
-    def add(name, model, family, strength, values):
+    def add(name, model, family, strength, values, epochs=args.epochs, width=args.width[0]):
         for metric, v in values.items():
             rows.append(
                 {
                     "object": name,
-                    "epochs": args.epochs,
+                    "epochs": epochs,
+                    "shadowing_width": width,
+                    "shadowing_dilations": None if width is None else dilations,
                     "model": model,
                     "family": family,
                     "strength": strength,
@@ -167,7 +261,34 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp_dir:
         tmp = Path(tmp_dir)
-        for name in args.objects:
+        if args.time_only:  # the cost of a shape, not of a training: random weights and inputs
+            start = time.perf_counter()
+            torch.manual_seed(config["seed"])
+            n, c = prt["resolution"], shadowing_cfg.out_channels
+            fresh = {  # (model, width) -> network; the paper's form has no shadowing width
+                ("shadowing", w): ShadowingTransfer(dataclasses.replace(shadowing_cfg, width=w))
+                for w in args.width
+            }
+            if not args.skip_paper:  # the paper's form with an identity normalisation
+                norm = Normalisation(
+                    np.zeros(3), np.ones(3), np.zeros((c, n, n)), np.ones((c, 1, 1))
+                )
+                net = build_network(c, model_cfg["widths"], model_cfg["blocks"])
+                fresh[("paper", None)] = TransferNetwork(net, norm)
+            x = untrained_frames(n, config["seed"])
+            for (model, w), module in fresh.items():
+                export_onnx(module.eval(), torch.from_numpy(x), tmp / f"{model}{w}.onnx", rtol=1e-4)
+            timings = {key: [] for key in fresh}
+            for _ in range(args.rounds):  # interleaved: a change of the machine's load hits all
+                for (model, w), module in fresh.items():
+                    timings[(model, w)].append(network_timing(module, tmp / f"{model}{w}.onnx", x))
+            for (model, w), per_round in timings.items():
+                median = pd.DataFrame(per_round).median().to_dict()
+                add("untrained", model, "timing", 0.0, median, epochs=0, width=w)
+            seconds["time_only"] = time.perf_counter() - start
+            io.write_csv(out, tidy(rows))
+            print(tidy(rows).to_string(), flush=True)
+        for name in [] if args.time_only else args.objects:
             start = time.perf_counter()
             gim, seq = build_object(name, config, tmp)
             split = {}
@@ -200,29 +321,45 @@ def main() -> None:
             seconds[f"{name}_unseen_data"] = time.perf_counter() - start
             print(f"{name}: unseen data in {seconds[f'{name}_unseen_data']:.0f} s", flush=True)
 
+            paper, checkpoints = None, {}
+            if not args.skip_paper:
+                start = time.perf_counter()
+                checkpoints["paper"] = ckpt = tmp / f"{name}_paper.pt"
+                train_deepprt(
+                    split["train"],
+                    split["val"],
+                    "diffuse",
+                    train_cfg,
+                    1,
+                    str(ckpt),
+                    str(tmp / "l.csv"),
+                )
+                paper = DeepPRT(ckpt, device="cpu")
+                seconds[f"{name}_train_paper"] = time.perf_counter() - start
             start = time.perf_counter()
-            ckpt = tmp / f"{name}_paper.pt"
-            train_deepprt(
-                split["train"], split["val"], "diffuse", train_cfg, 1, str(ckpt), str(tmp / "l.csv")
-            )
-            paper = DeepPRT(ckpt, device="cpu")
-            seconds[f"{name}_train_paper"] = time.perf_counter() - start
-            start = time.perf_counter()
+            checkpoints["shadowing"] = tmp / f"{name}_local.pt"
             local = train_local(
                 split["train"],
                 split["val"],
                 shadowing_cfg,
                 train_cfg,
                 1,
-                str(tmp / f"{name}_local.pt"),
+                str(checkpoints["shadowing"]),
                 str(tmp / "l2.csv"),
             )
             seconds[f"{name}_train_shadowing"] = time.perf_counter() - start
             print(
-                f"{name}: trained paper {seconds[f'{name}_train_paper']:.0f} s, "
+                f"{name}: trained paper {seconds.get(f'{name}_train_paper', 0):.0f} s, "
                 f"shadowing {seconds[f'{name}_train_shadowing']:.0f} s",
                 flush=True,
             )
+            for model, ckpt in checkpoints.items():  # the shipped file's cost: its ONNX export
+                onnx_file = ckpt.with_suffix(".onnx")
+                export_deepprt(ckpt, split["test"], onnx_file)
+                timing = network_timing(
+                    load_transfer_module(ckpt), onnx_file, raw_inputs(split["test"])
+                )
+                add(name, model, "timing", 0.0, timing)
 
             start = time.perf_counter()
             cases = {("test", 0.0): split["test"], **unseen_splits}
@@ -231,7 +368,7 @@ def main() -> None:
                 for model, values in frame_scores(data, preds, light, model_cfg).items():
                     add(name, model, family, strength, values)
             seconds[f"{name}_score"] = time.perf_counter() - start
-            table = pd.DataFrame(rows)
+            table = tidy(rows)
             io.write_csv(out, table)  # after every object: a partial run keeps what it measured
             print(
                 table[(table.object == name) & (table.metric == "rel_l1_diffuse")]
@@ -241,9 +378,13 @@ def main() -> None:
                 flush=True,
             )
     meta = {
-        "command": "nice -n 15 python " + " ".join(sys.argv),
+        "command": f"nice -n {os.nice(0)} python " + " ".join(sys.argv),
         "commit": commit,
-        "budget": f"equal epochs: {args.epochs} for both models over the same "
+        "budget": "timing only (a freshly initialised network)"
+        if args.time_only
+        else f"equal epochs: {args.epochs} for "
+        + ("the shadowing variant" if args.skip_paper else "both models")
+        + " over the same "
         f"{prt['frames']['train']} training frames (val {prt['frames']['val']} picks the epoch)",
         "config": {
             "resolution": prt["resolution"],
