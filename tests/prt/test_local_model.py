@@ -12,6 +12,7 @@ from neurender.prt.local_model import (
     ShadowingTransfer,
     load_local,
     local_features,
+    local_mean,
     receptive_field,
 )
 from neurender.prt.model import DeepPRT, export_deepprt
@@ -162,3 +163,16 @@ def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, mate
     net = DeepPRT(ckpt, onnx, device="cpu")
     for engine in ("pytorch", "onnxruntime"):
         assert np.allclose(net.predict(val, engine=engine), loaded, rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("window", [1, 3, 15])
+def test_the_separable_local_mean_is_the_2d_mean_with_borders_of_the_pixels_inside(window):
+    x = torch.randn(2, 3, 20, 17, dtype=torch.float64)
+    half = window // 2
+    expected = torch.nn.functional.avg_pool2d(
+        x, window, stride=1, padding=half, count_include_pad=False
+    )
+    torch.testing.assert_close(local_mean(x, window), expected)
+    # A corner's mean is that of the pixels inside its window, by hand.
+    corner = x[:, :, : half + 1, : half + 1].mean(dim=(2, 3))
+    torch.testing.assert_close(local_mean(x, window)[:, :, 0, 0], corner)
