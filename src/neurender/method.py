@@ -140,8 +140,9 @@ class Study:
     def view(self, root: str | Path) -> pd.DataFrame:
         """The table of the CSV under ``root``: the rows of :attr:`query`, one row per
         :attr:`index` values (in order of appearance) and one column per :attr:`columns`
-        values, each cell the mean of :attr:`values` over the rows that share them. The
-        index columns come first; the others are named by their values joined with
+        values (the first column's varying slowest, each in order of appearance), each cell
+        the mean of :attr:`values` over the rows that share them. The index columns come
+        first; the others are named by their values joined with
         ``", "``, a number prefixed with its column's name (``rel_l1_diffuse, epochs 3``).
         ``ValueError`` naming the file for a missing column, a non-numeric ``values``, a
         query that fails or selects nothing."""
@@ -171,6 +172,13 @@ class Study:
             sort=False,
         )
         if self.columns:
+            # the first of ``columns`` varies slowest, each level in order of appearance
+            rank = [{v: i for i, v in enumerate(pd.unique(frame[c]))} for c in self.columns]
+            keys = [k if isinstance(k, tuple) else (k,) for k in wide.columns]
+            order = sorted(
+                range(len(keys)), key=lambda j: [r[v] for r, v in zip(rank, keys[j], strict=True)]
+            )
+            wide = wide.iloc[:, order]
             wide.columns = [_label(wide.columns.names, key) for key in wide.columns]
         return wide.reset_index()
 
