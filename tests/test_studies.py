@@ -76,6 +76,19 @@ def test_a_missing_column_fails_naming_the_file_and_the_column(tmp_path):
     study = _study(tmp_path, _tidy(), index=("model",), values="seconds")
     with pytest.raises(ValueError, match=r"s\.csv: no column \['seconds'\]"):
         study.view(tmp_path)
+    study = _study(tmp_path, _tidy(), index=("seed",), values="split")
+    with pytest.raises(ValueError, match=r"s\.csv: column 'split' is not numeric"):
+        study.view(tmp_path)
+
+
+def test_an_unreadable_csv_fails_naming_the_file(tmp_path):
+    study = _study(tmp_path, _tidy(), index=("model",))
+    (tmp_path / "s.csv").write_text("")
+    with pytest.raises(ValueError, match=r"s\.csv: not a CSV table"):
+        study.view(tmp_path)
+    (tmp_path / "s.csv").unlink()
+    with pytest.raises(FileNotFoundError, match=r"s\.csv"):
+        study.view(tmp_path)
 
 
 def test_a_query_that_selects_nothing_or_fails_names_the_file(tmp_path):

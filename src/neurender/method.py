@@ -144,10 +144,13 @@ class Study:
         the mean of :attr:`values` over the rows that share them. The index columns come
         first; the others are named by their values joined with
         ``", "``, a number prefixed with its column's name (``rel_l1_diffuse, epochs 3``).
-        ``ValueError`` naming the file for a missing column, a non-numeric ``values``, a
-        query that fails or selects nothing."""
+        ``ValueError`` naming the file for an unreadable CSV, a missing column, a
+        non-numeric ``values``, a query that fails or selects nothing."""
         path = Path(root) / self.csv
-        frame = pd.read_csv(path)
+        try:
+            frame = pd.read_csv(path)
+        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+            raise ValueError(f"{path}: not a CSV table ({err}); expected a study's CSV") from err
         needed = list(dict.fromkeys((*self.index, *self.columns, self.values)))
         missing = [c for c in needed if c not in frame.columns]
         if missing:
