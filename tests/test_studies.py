@@ -175,3 +175,10 @@ def test_a_registered_methods_study_reaches_its_section_with_its_numbers(tmp_pat
     (tmp_path / "s.csv").write_text("model,value\na,1\n")
     with pytest.raises(ValueError, match=r"s\.csv: no column \['split'\]"):
         build.build_report([], [], tmp_path / "r.html", root=tmp_path)
+
+
+def test_a_studys_cells_have_its_significant_digits(tmp_path):
+    rows = [dict(model="a", split=s, value=v) for s, v in (("x", 1 / 3), ("y", 2 / 3))]
+    study = _study(tmp_path, rows, index=("model",), columns=("split",), digits=2)
+    shown = build._study(study, tmp_path)["html"]
+    assert "<td>0.33</td>" in shown and "<td>0.67</td>" in shown and "0.333" not in shown
