@@ -264,7 +264,7 @@ def test_a_registered_method_gets_a_report_section(toy, tmp_path):
     assert "test PSNR" in html and "<td>29.5</td>" in html and "Toy Table 2" in html
 
 
-def test_the_report_rule_reads_every_methods_report_inputs(smoke):
+def test_the_report_rule_reads_every_methods_report_inputs_and_studies(smoke):
     out = subprocess.run(
         [sys.executable, "-m", "snakemake", "results/report.html", "-n", "--forceall"]
         + ["--cores", "2", "--configfile", "config/smoke.yaml"],
@@ -278,4 +278,12 @@ def test_the_report_rule_reads_every_methods_report_inputs(smoke):
     expected = []
     for kind in ("tables", "figures", "viewers"):
         expected += [f for m in methods.METHODS for f in getattr(m.report_inputs(smoke), kind)]
+    # every committed study's CSV and sidecar, each once (two views may share a CSV)
+    studies = [p for m in methods.METHODS for s in m.studies for p in (s.csv, s.sidecar)]
+    assert studies
+    expected += list(dict.fromkeys(studies))
     assert listed == [*expected, "results/provenance.json"]
+    # the provenance record does not read them: a new study reruns the report only
+    block = out.stdout.split("\nrule provenance:\n", 1)[1]
+    provenance = re.search(r"^\s+input: (.*)$", block, re.M).group(1).split(", ")
+    assert not set(studies) & set(provenance)

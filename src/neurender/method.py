@@ -11,8 +11,11 @@ imports only plain Python, numpy and pandas (never torch or Mitsuba).
 from __future__ import annotations
 
 import dataclasses
+import json
+import re
 from collections.abc import Callable, Iterator, Mapping
 from importlib.resources.abc import Traversable
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import pandas as pd
@@ -96,6 +99,135 @@ TABLE_COLUMNS = {
 
 
 @dataclasses.dataclass(frozen=True)
+class Study:
+    """A committed study of a method (hours of compute, outside CI): its tidy CSV under
+    ``benchmarks/results/`` with a sidecar ``.json`` beside it (:attr:`sidecar`: the
+    command and commit of each run that made it), and the compact table the report shows.
+
+    Attributes:
+        csv: the CSV's path relative to the repository root.
+        title: the report's heading of the study.
+        description: what was measured, at which budget (a sentence or two).
+        query: a :meth:`pandas.DataFrame.query` string selecting the rows shown ("" for all).
+        index: the columns whose values name the table's rows (at least one).
+        columns: the columns whose values name the table's columns (none: one column,
+            ``values``).
+        values: the numeric column shown in the cells; rows that share ``index`` and
+            ``columns`` values (seeds, frames, strengths) are averaged.
+        digits: significant digits of the cells.
+    """
+
+    csv: str
+    title: str
+    description: str
+    query: str = ""
+    index: tuple[str, ...] = ()
+    columns: tuple[str, ...] = ()
+    values: str = "value"
+    digits: int = 4
+
+    def __post_init__(self):
+        if not self.index:
+            raise ValueError(f"study {self.csv}: index is empty; expected at least one column")
+        if not self.csv.endswith(".csv"):
+            raise ValueError(f"study {self.csv}: expected a path ending in .csv")
+
+    @property
+    def sidecar(self) -> str:
+        """The sidecar's path relative to the repository root: the CSV's, ``.json``."""
+        return str(PurePosixPath(self.csv).with_suffix(".json"))
+
+    def view(self, root: str | Path) -> pd.DataFrame:
+        """The table of the CSV under ``root``: the rows of :attr:`query`, one row per
+        :attr:`index` values (in order of appearance) and one column per :attr:`columns`
+        values (the first column's varying slowest, each in order of appearance), each cell
+        the mean of :attr:`values` over the rows that share them. The index columns come
+        first; the others are named by their values joined with
+        ``", "``, a number prefixed with its column's name (``rel_l1_diffuse, epochs 3``).
+        ``ValueError`` naming the file for an unreadable CSV, a missing column, a
+        non-numeric ``values``, a query that fails or selects nothing."""
+        path = Path(root) / self.csv
+        try:
+            frame = pd.read_csv(path)
+        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+            raise ValueError(f"{path}: not a CSV table ({err}); expected a study's CSV") from err
+        needed = list(dict.fromkeys((*self.index, *self.columns, self.values)))
+        missing = [c for c in needed if c not in frame.columns]
+        if missing:
+            raise ValueError(
+                f"{path}: no column {missing}; the study {self.title!r} needs columns "
+                f"{needed} (found {list(frame.columns)})"
+            )
+        if not pd.api.types.is_numeric_dtype(frame[self.values]):
+            raise ValueError(f"{path}: column {self.values!r} is not numeric; expected numbers")
+        if self.query:
+            try:
+                frame = frame.query(self.query)
+            except Exception as err:  # pandas raises many kinds for a bad query
+                raise ValueError(f"{path}: query {self.query!r} failed: {err}") from err
+        if frame.empty:
+            raise ValueError(f"{path}: no rows match query {self.query!r}; expected some")
+        wide = frame.pivot_table(
+            index=list(self.index),
+            columns=list(self.columns) or None,
+            values=self.values,
+            aggfunc="mean",
+            sort=False,
+        )
+        if self.columns:
+            # the first of ``columns`` varies slowest, each level in order of appearance
+            rank = [{v: i for i, v in enumerate(pd.unique(frame[c]))} for c in self.columns]
+            keys = [k if isinstance(k, tuple) else (k,) for k in wide.columns]
+            order = sorted(
+                range(len(keys)), key=lambda j: [r[v] for r, v in zip(rank, keys[j], strict=True)]
+            )
+            wide = wide.iloc[:, order]
+            wide.columns = [_label(wide.columns.names, key) for key in wide.columns]
+        return wide.reset_index()
+
+    def runs(self, root: str | Path) -> tuple[str, list[dict[str, Any]]]:
+        """The sidecar under ``root``: its ``note`` ("" without one) and its runs, each
+        with ``command`` and ``commit`` (strings), ``dirty`` (``True``, ``False`` or
+        ``None`` when not recorded) and ``note`` (""). A sidecar is either one run's
+        record or ``{"note": ..., "runs": [...]}``. ``ValueError`` naming the file and key
+        for anything else."""
+        path = Path(root) / self.sidecar
+        try:
+            record = json.loads(path.read_text())
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{path}: not JSON ({err}); expected a study's sidecar") from err
+        if not isinstance(record, dict):
+            raise ValueError(f"{path}: expected a JSON object")
+        runs = record.get("runs", [record])
+        if not isinstance(runs, list) or not runs:
+            raise ValueError(f"{path}: 'runs' must be a non-empty list of run records")
+        found = []
+        for i, run in enumerate(runs):
+            where = f"{path}: run {i}" if "runs" in record else str(path)
+            if not isinstance(run, dict):
+                raise ValueError(f"{where}: expected a JSON object")
+            command, commit = run.get("command"), run.get("commit")
+            if not isinstance(command, str) or not command:
+                raise ValueError(f"{where}: 'command' = {command!r}; expected a command line")
+            if not isinstance(commit, str) or not re.fullmatch(r"[0-9a-f]{7,40}", commit):
+                raise ValueError(f"{where}: 'commit' = {commit!r}; expected a git commit hash")
+            dirty = run.get("dirty")
+            if dirty not in (True, False, None):
+                raise ValueError(f"{where}: 'dirty' = {dirty!r}; expected true or false")
+            note = run.get("note", "") if "runs" in record else ""
+            found.append({"command": command, "commit": commit, "dirty": dirty, "note": note})
+        return record.get("note", ""), found
+
+
+def _label(names: list[str], key: object) -> str:
+    """A pivoted column's name: its values joined, a number after its column's name."""
+    values = key if isinstance(key, tuple) else (key,)
+    return ", ".join(
+        str(v) if isinstance(v, str) else f"{n} {v}" for n, v in zip(names, values, strict=True)
+    )
+
+
+@dataclasses.dataclass(frozen=True)
 class Method:
     """One method of the project.
 
@@ -117,6 +249,8 @@ class Method:
         user_paths: ``user_paths(config)``: every path the user wrote in its config
             sections (:class:`neurender.user_paths.UserPath`, empty ones included), which
             :func:`neurender.config.wildcard_problems` checks for braces; none by default.
+        studies: its committed studies (:class:`Study`), shown in its report section
+            after the run's tables as results of their own commits, not of the run.
     """
 
     key: str
@@ -129,6 +263,7 @@ class Method:
     rules: Mapping[str, Rule]
     tables_dir: Traversable
     user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
+    studies: tuple[Study, ...] = ()
 
     @property
     def short_title(self) -> str:

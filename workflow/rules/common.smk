@@ -67,6 +67,19 @@ def scheduler_resources(rule_name):
     }
 
 
+def report_studies(wildcards):
+    """Every registered method's committed studies' CSVs and sidecars
+    (:attr:`neurender.method.Method.studies`), each once, in report order: inputs of the
+    report only, so that committing a study reruns nothing else."""
+    files = [
+        path
+        for method in neurender.methods.METHODS
+        for study in method.studies
+        for path in (study.csv, study.sidecar)
+    ]
+    return list(dict.fromkeys(files))
+
+
 def report_results(wildcards):
     """Every table, figure and viewer the report shows (also the provenance's inputs)."""
     return {kind: report_inputs(kind) for kind in ("tables", "figures", "viewers")}

@@ -4,6 +4,7 @@
 rule report:
     input:
         unpack(report_results),
+        studies=report_studies,
         provenance="results/provenance.json",
     output:
         html="results/report.html",

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from neurender import asset_files, checks, io
-from neurender.method import Method, ReportInputs, Rule, Units, unet_work
+from neurender.method import Method, ReportInputs, Rule, Study, Units, unet_work
 from neurender.ndr import (
     DIFFUSE_VARIANTS,
     EQUAL_QUALITY_REPEATS,
@@ -176,6 +176,49 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     )
 
 
+#: Issue 25's study (``benchmarks/ndr_diffuse_study.py``) and the deployment and coarse
+#: shading timings (``benchmarks/ndr_graph.py``, ``benchmarks/coarse_shading.py``).
+STUDIES = (
+    Study(
+        csv="benchmarks/results/ndr_diffuse_study.csv",
+        title="Diffuse-data study: NDR against Real Shading",
+        description=(
+            "DSSIM of the tone-mapped I_R on the diffuse data's val (24) and test (60) "
+            "samples at 64 x 64, per variant and coarse shading, the mean over its seeds "
+            "(1 to 3); every variant trained for 8 epochs (batch 16, cosine schedule), the "
+            "best validation epoch kept. Rows shading_input and noise floor are untrained."
+        ),
+        query="metric == 'dssim_I_R'",
+        index=("variant", "coarse_shading"),
+        columns=("split",),
+    ),
+    Study(
+        csv="benchmarks/results/ndr_graph.csv",
+        title="Shipped graph: milliseconds per part",
+        description=(
+            "Median ONNX Runtime milliseconds of one 64 x 64 frame of the default network, "
+            "the prefiltered coarse shading and the two in one graph, per thread count "
+            "(the CSV also holds PyTorch's times and the export check)."
+        ),
+        index=("part",),
+        columns=("threads",),
+        values="onnxruntime_ms",
+    ),
+    Study(
+        csv="benchmarks/results/coarse_shading.csv",
+        title="Coarse shading: milliseconds per image",
+        description=(
+            "Median milliseconds of the coarse shading of one 64 x 64 object's pixels by "
+            "the importance-sampled estimator (64 samples per lobe) and the prefiltered "
+            "one, and of the prefiltered lighting's once-per-map preparation, per thread "
+            "count."
+        ),
+        index=("estimator",),
+        columns=("threads",),
+        values="ms",
+    ),
+)
+
 METHOD = Method(
     key="ndr",
     title="NDR: neural direct-illumination renderer",
@@ -189,6 +232,7 @@ METHOD = Method(
     problems=problems,
     report_inputs=report_inputs,
     user_paths=user_paths,
+    studies=STUDIES,
     rules={
         "ndr_data": Rule(STAGE, _data, gpu=True),
         "ndr_summary": Rule(STAGE, _summary),

@@ -11,7 +11,7 @@ from typing import Any
 
 from neurender import checks
 from neurender.lights import BUILTIN_PROBES
-from neurender.method import Method, ReportInputs, Rule, Units, unet_work
+from neurender.method import Method, ReportInputs, Rule, Study, Units, unet_work
 from neurender.prt import EXPERIMENTS, OBJECTS, RESERVED, user_sequence_problems
 from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
 
@@ -178,6 +178,37 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     )
 
 
+#: Issue 27's study, ``benchmarks/prt_generalisation.py``: the shipped model against the
+#: shadowing variant and the two baselines at 3, 8 and 14 epochs.
+GENERALISATION = "benchmarks/results/prt_generalisation.csv"
+STUDIES = (
+    Study(
+        csv=GENERALISATION,
+        title="Generalisation study: the test frames",
+        description=(
+            "Relative L1 of the diffuse radiance and SSIM of the diffuse images on the 40 "
+            "test frames of head and cloth (64 x 64, 256 directions, references at 1024), "
+            "for the paper's model and the shadowing variant, each trained for 3, 8 and 14 "
+            "epochs over the same 240 frames, beside the unshadowed and static baselines."
+        ),
+        query="family == 'test'",
+        index=("object", "model"),
+        columns=("metric", "epochs"),
+    ),
+    Study(
+        csv=GENERALISATION,
+        title="Generalisation study: unseen deformations",
+        description=(
+            "Relative L1 of the diffuse radiance on deformations outside the training "
+            "animation (each family's mean over strengths 0.25, 0.5 and 1), same models "
+            "and budgets as the test frames above."
+        ),
+        query="family != 'test' and metric == 'rel_l1_diffuse'",
+        index=("object", "family"),
+        columns=("model", "epochs"),
+    ),
+)
+
 METHOD = Method(
     key="prt",
     title="DeepPRT: deep precomputed radiance transfer for deformable objects",
@@ -191,6 +222,7 @@ METHOD = Method(
     problems=problems,
     report_inputs=report_inputs,
     user_paths=user_paths,
+    studies=STUDIES,
     rules={
         "prt_probe": Rule(DATA),
         "prt_geometry_image": Rule(DATA, _frames),

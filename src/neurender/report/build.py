@@ -13,7 +13,10 @@ hardware) and our hardware. The sections are the registered methods'
 (:data:`neurender.methods.METHODS`: ``key``, ``title``, ``citation``, ``link`` and their
 tables), in that order; a method whose stage has not produced anything says so. Figures,
 viewer data and the viewers' code (three.js, bundled in ``static/viewers.min.js``) are
-embedded, so the file opens from disk with no server.
+embedded, so the file opens from disk with no server. After a section's tables come its
+method's committed studies (:attr:`neurender.method.Method.studies`: CSVs under
+``benchmarks/results/`` with their sidecars), each with the commands and commits that made
+it, shown as results of those commits, never of this run.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ import pandas as pd
 
 from neurender import io, methods, viewer_data
 from neurender.deployment import ENGINE_COLUMNS, ENGINE_NAMES, read_deployment
-from neurender.method import Method
+from neurender.method import Method, Study
 from neurender.tables import TIDY_COLUMNS, lookup
 
 #: Tables longer than this many rows are shown collapsed.
@@ -116,6 +119,42 @@ def training_budget(frame: pd.DataFrame) -> str:
         for m, r in per_model.iterrows()
     )
     return f"Training budget: unequal, epochs per learned model: {spread}."
+
+
+def commit_label(git: Mapping[str, Any]) -> str:
+    """``<12 hex digits>``, with ``+ uncommitted changes`` when dirty; ``not a git
+    checkout`` without a commit."""
+    if git.get("commit") is None:
+        return "not a git checkout"
+    return git["commit"][:12] + (" + uncommitted changes" if git.get("dirty") else "")
+
+
+def _study(study: Study, root: Path) -> dict:
+    """A committed study as its section shows it: title, description, the sidecar's runs
+    (command, abbreviated commit) and the view (:meth:`Study.view`) as HTML, its cells
+    to ``study.digits`` significant digits."""
+    note, runs = study.runs(root)
+    view = study.view(root)
+
+    def cell(v: object) -> str:
+        if isinstance(v, float) and v == v and abs(v) < 1e5:
+            return f"{v:.{study.digits}g}"
+        return _format_value(v)
+
+    shown = view.copy()
+    for c in view.columns:
+        shown[c] = view[c].map(_format_value if c in study.index else cell)
+    return {
+        "title": study.title,
+        "description": study.description,
+        "csv": study.csv,
+        "sidecar": study.sidecar,
+        "note": note,
+        "runs": [
+            {"command": r["command"], "commit": commit_label(r), "note": r["note"]} for r in runs
+        ],
+        "html": _table_html(shown),
+    }
 
 
 def _embed_image(path: Path) -> str:
@@ -246,7 +285,13 @@ def table_name(table: Path, key: str) -> str:
     return "/".join(parts[parts.index(key) + 1 :])
 
 
-def _section(section: Method, tables: list[Path], figures: list[Path], viewers: list[dict]):
+def _section(
+    section: Method,
+    tables: list[Path],
+    figures: list[Path],
+    viewers: list[dict],
+    root: Path | None,
+):
     frames = {table_name(t, section.key): io.read_csv(t) for t in tables}
     paper = section.table("paper_numbers").drop(columns="method")
     rendered = []
@@ -278,6 +323,7 @@ def _section(section: Method, tables: list[Path], figures: list[Path], viewers: 
         "figures": [{"caption": f.stem.replace("_", " "), "src": _embed_image(f)} for f in figures],
         "viewers": viewers,
         "paper": _table_html(paper.map(_format_value)) if len(paper) else "",
+        "studies": [_study(s, root) for s in section.studies] if root is not None else [],
     }
 
 
@@ -289,6 +335,7 @@ def build_report(
     run_info: dict[str, str] | None = None,
     viewers: Sequence[str | Path] = (),
     provenance: Mapping[str, Any] | None = None,
+    root: str | Path | None = None,
 ) -> None:
     """Write the HTML report.
 
@@ -301,6 +348,9 @@ def build_report(
         run_info: key -> value pairs shown at the top (config file, seed, ...).
         viewers: viewer files (:mod:`neurender.viewer_data`) under ``results/<method>/``.
         provenance: the run's :mod:`neurender.provenance` record, shown collapsed.
+        root: the repository root, which the methods' committed studies' paths
+            (:class:`neurender.method.Study`) are relative to; ``None``: no studies shown.
+            ``ValueError`` naming the file for a study's malformed CSV or sidecar.
     """
     sections = []
     for index, section in enumerate(methods.METHODS):
@@ -314,6 +364,7 @@ def build_report(
                 [Path(t) for t in tables if _method_of(Path(t)) == section.key],
                 [Path(f) for f in figures if _method_of(Path(f)) == section.key],
                 own_viewers,
+                None if root is None else Path(root),
             )
         )
     code = ""

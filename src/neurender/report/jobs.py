@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 from neurender import provenance as provenance_record
-from neurender.report.build import build_report
+from neurender.report.build import build_report, commit_label
 
 
 def report(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every table, figure and viewer of the run in one self-contained HTML file, headed by
-    the commit and with the run's ``provenance`` in a collapsed section."""
+    the commit and with the run's ``provenance`` in a collapsed section; each method's
+    committed studies (``inputs["studies"]``, their CSVs and sidecars) after its tables."""
     record = provenance_record.read(inputs["provenance"])
     run_info = {
         "config": ", ".join(params["configfiles"]),
@@ -24,15 +25,8 @@ def report(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         run_info,
         viewers=inputs.get("viewers", []),
         provenance=record,
+        root=".",  # the workflow's working directory, the repository root
     )
-
-
-def commit_label(git: dict) -> str:
-    """``<12 hex digits>``, with ``+ uncommitted changes`` when dirty; ``not a git
-    checkout`` without a commit."""
-    if git.get("commit") is None:
-        return "not a git checkout"
-    return git["commit"][:12] + (" + uncommitted changes" if git.get("dirty") else "")
 
 
 def provenance(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
