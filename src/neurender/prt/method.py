@@ -207,6 +207,25 @@ STUDIES = (
         index=("object", "family"),
         columns=("model", "epochs"),
     ),
+    Study(
+        csv="benchmarks/results/prt_width.csv",
+        title="Width of the shadowing network",
+        description=(
+            "The shadowing variant at widths 16, 24 and 32 (48 is the study above), 14 "
+            "epochs on head and cloth: relative L1 of the diffuse radiance on the test "
+            "frames, and the network's milliseconds per 64 x 64 frame in ONNX Runtime "
+            "(1 thread; untrained networks of each width; measured at 1b41e83, before the "
+            "inputs' local mean became two 1D means)."
+        ),
+        # The trained networks' own timing rows were taken under load: the untrained
+        # networks' sweep (interleaved rounds, the median) gives the milliseconds.
+        query=(
+            "(family == 'test' and metric == 'rel_l1_diffuse' and model == 'shadowing')"
+            " or (object == 'untrained' and metric == 'onnx_ms_per_frame')"
+        ),
+        index=("object", "model", "shadowing_width"),
+        columns=("metric",),
+    ),
 )
 
 METHOD = Method(
