@@ -99,7 +99,7 @@ def trained(tmp_path_factory):
         files |= {f"{split}_dir": str(d / split), f"{split}_manifest": str(d / f"{split}.csv")}
     model = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
     model |= {"lr_schedule": "constant", "residual_targets": True, "device": "cpu"}
-    model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3]}
+    model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3], "variant": "paper"}
     nets = {"checkpoint": d / "net.pt", "onnx": d / "net.onnx", "loss": d / "loss.csv"}
     jobs.prt_train(files, nets, {**CFG, **model}, 1)
     jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
