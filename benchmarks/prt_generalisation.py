@@ -28,6 +28,13 @@ outside CI. Run with ``nice -n 15`` (torch uses one thread)::
 
 The committed CSV merges runs of one object each (``--out`` per run, then ``--merge``).
 
+Learning curves (``benchmarks/results/prt_learning_curve.csv``): ``--study
+config/studies/deepprt.yaml`` trains each model at every budget of the study config (error
+against epochs; error against the number of distinct training shapes at equal optimiser
+steps, :func:`study_runs`) instead of ``--epochs``; the config's comment gives the
+commands. Rows carry ``train_frames`` and ``steps``; the baselines, which need no training,
+have 0 epochs, frames and steps.
+
 Cost and width (``benchmarks/results/prt_width.csv``): ``--width`` and ``--dilations`` set
 the shadowing variant's :class:`~neurender.prt.local_model.LocalConfig`, ``--skip-paper``
 trains only that variant. Every trained network is exported as the pipeline ships it
@@ -53,11 +60,13 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import torch
+import yaml
 
 from neurender import io, lights, sh
 from neurender.nn.inference import engine_milliseconds, export_onnx
@@ -77,25 +86,6 @@ from neurender.prt.model import (
 from neurender.prt.training import train_deepprt, train_local
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def predictions(
-    data: frames.Split, paper: DeepPRT | None, local, mean_split: frames.Split, n_bands: int
-) -> dict[tuple[str, str], np.ndarray]:
-    """``(model, "diffuse") -> (F, K, n, n)`` diffuse transfer of every model and baseline
-    (no ``paper`` entry when ``paper`` is None, ``--skip-paper``)."""
-    with torch.no_grad():
-        x = torch.from_numpy(raw_inputs(data))
-        shadowing = np.concatenate([local(x[i : i + 8]).numpy() for i in range(0, len(x), 8)])
-    paper_pred = {} if paper is None else {("paper", "diffuse"): paper.predict(data)}
-    return {
-        **paper_pred,
-        ("shadowing", "diffuse"): shadowing,
-        ("unshadowed", "diffuse"): unseen.unshadowed_baseline(data.positions, n_bands),
-        ("static", "diffuse"): unseen.static_baseline(
-            mean_split.targets("diffuse")[0], len(data.positions)
-        ),
-    }
 
 
 def network_timing(module: torch.nn.Module, onnx_file: Path, frame: np.ndarray) -> dict:
@@ -176,7 +166,128 @@ def merge(csvs: list[str], out: Path) -> None:
         tmp_path.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
 
 
-def main() -> None:
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One training of one model (``paper`` or ``shadowing``): ``epochs`` over the first
+    ``train_frames`` of the evenly spaced training frames (:func:`subset`)."""
+
+    model: str
+    epochs: int
+    train_frames: int
+
+
+@dataclasses.dataclass
+class ObjectData:
+    """An object's traced frames: ``split`` (train, val, test), the mean training shape's
+    ``mean_split`` (the static baseline) and ``unseen`` (family, strength) -> frames."""
+
+    name: str
+    split: dict[str, frames.Split]
+    mean_split: frames.Split
+    unseen: dict[tuple[str, float], frames.Split]
+
+
+def study_runs(study: dict, models: list[str]) -> list[Run]:
+    """Every run of a learning-curve study (``config/studies/deepprt.yaml``), each once:
+    every model at every ``epochs`` over ``equal_steps.frames`` training frames, and at
+    every ``train_frames`` n for ``equal_steps.epochs x equal_steps.frames / n`` epochs
+    (rounded), i.e. the same optimiser steps over fewer or more distinct shapes."""
+    base = study["equal_steps"]
+    runs = [Run(m, e, base["frames"]) for m in models for e in study["epochs"]]
+    for n in study["train_frames"]:
+        epochs = max(1, round(base["epochs"] * base["frames"] / n))
+        runs += [Run(m, epochs, n) for m in models]
+    return list(dict.fromkeys(runs))
+
+
+def subset(split: frames.Split, n: int) -> frames.Split:
+    """``n`` frames of a split, evenly spaced over it (all of them if it has ``n``)."""
+    total = len(split.positions)
+    if not 1 <= n <= total:
+        raise ValueError(f"{n} training frames: the split has {total}")
+    index = np.unique(np.linspace(0, total - 1, n).round().astype(int))
+    fields = (f.name for f in dataclasses.fields(split))
+    return frames.Split(*(getattr(split, f)[index] for f in fields))
+
+
+def object_data(
+    name: str, config: dict, strengths: list[float], per_strength: int, tmp: Path
+) -> tuple[ObjectData, dict[str, float]]:
+    """Trace an object's splits (test at ``reference_directions``), its mean training shape
+    and every unseen-deformation case; also the seconds of each part."""
+    prt = config["prt"]
+    transfer_cfg = {k: config["prt"][k] for k in ("direction_sets", "n_bands")}
+    transfer_cfg["seed"] = config["seed"]
+    start, seconds = time.perf_counter(), {}
+    gim, seq = build_object(name, config, tmp)
+    split = {}
+    for s in ("train", "val", "test"):
+        pos = seq[f"{s}_positions"]
+        directions = prt["reference_directions" if s == "test" else "directions"]
+        offset = frames.ray_offset(pos[0], prt["ray_offset"])
+        split[s] = unseen_scores.traced(pos, directions, transfer_cfg, offset, None, 1, name, s)
+    seconds[f"{name}_data"] = time.perf_counter() - start
+    print(f"{name}: data in {seconds[f'{name}_data']:.0f} s", flush=True)
+    start = time.perf_counter()
+    mean = seq["train_positions"].astype(np.float64).mean(0)
+    ref = prt["reference_directions"]
+    offset = frames.ray_offset(mean, prt["ray_offset"])
+    mean_split = unseen_scores.traced(
+        mean[None], ref, transfer_cfg, offset, None, 1, name, "unseen_mean"
+    )
+    families = unseen.families_for(len(gim["deltas"]) > 0)
+    unseen_splits = {
+        (case.family, case.strength): unseen_scores.traced(
+            case.positions, ref, transfer_cfg, offset, None, 1, name, case.tag
+        )
+        for case in unseen_scores.cases(
+            mean, families, strengths, per_strength, config["seed"], gim["deltas"]
+        )
+    }
+    seconds[f"{name}_unseen_data"] = time.perf_counter() - start
+    print(f"{name}: unseen data in {seconds[f'{name}_unseen_data']:.0f} s", flush=True)
+    return ObjectData(name, split, mean_split, unseen_splits), seconds
+
+
+def train_run(
+    run: Run, data: ObjectData, shadowing_cfg: LocalConfig, train_cfg: dict, tmp: Path
+) -> tuple[Path, Callable[[frames.Split], np.ndarray]]:
+    """Train one run's model; its checkpoint and its diffuse prediction ``(F, K, n, n)``."""
+    train = subset(data.split["train"], run.train_frames)
+    cfg = {**train_cfg, "epochs": run.epochs}
+    ckpt = tmp / f"{data.name}_{run.model}_{run.epochs}_{run.train_frames}.pt"
+    losses = str(ckpt.with_suffix(".csv"))
+    if run.model == "paper":
+        train_deepprt(train, data.split["val"], "diffuse", cfg, 1, str(ckpt), losses)
+        return ckpt, DeepPRT(ckpt, device="cpu").predict
+    local = train_local(train, data.split["val"], shadowing_cfg, cfg, 1, str(ckpt), losses)
+
+    def predict(split: frames.Split) -> np.ndarray:
+        with torch.no_grad():
+            x = torch.from_numpy(raw_inputs(split))
+            return np.concatenate([local(x[i : i + 8]).numpy() for i in range(0, len(x), 8)])
+
+    return ckpt, predict
+
+
+def baselines(
+    data: frames.Split, mean_split: frames.Split, n_bands: int
+) -> dict[tuple[str, str], np.ndarray]:
+    """``(model, "diffuse") -> (F, K, n, n)`` of the two baselines that need no learning."""
+    return {
+        ("unshadowed", "diffuse"): unseen.unshadowed_baseline(data.positions, n_bands),
+        ("static", "diffuse"): unseen.static_baseline(
+            mean_split.targets("diffuse")[0], len(data.positions)
+        ),
+    }
+
+
+def cases_of(data: ObjectData) -> dict[tuple[str, float], frames.Split]:
+    """The test frames (family ``test``, strength 0) and every unseen case."""
+    return {("test", 0.0): data.split["test"], **data.unseen}
+
+
+def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--objects", nargs="+", default=["head", "cloth"])
     parser.add_argument("--epochs", type=int, default=8, help="epochs of both models")
@@ -185,6 +296,11 @@ def main() -> None:
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's (smoke)")
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/prt_generalisation.csv"))
     parser.add_argument("--merge", nargs="+", help="merge these runs' CSVs (and sidecars) only")
+    parser.add_argument(
+        "--study",
+        help="a learning-curve study config (config/studies/deepprt.yaml): its runs instead "
+        "of --epochs, its objects, strengths and frames per strength unless given",
+    )
     default = LocalConfig(n_bands=1, widths=(), blocks=1)  # the variant's own constants
     parser.add_argument(
         "--width",
@@ -206,26 +322,153 @@ def main() -> None:
         "--rounds", type=int, default=5, help="--time-only: interleaved timings, median kept"
     )
     args = parser.parse_args()
-    if args.merge:
-        merge(args.merge, Path(args.out))
-        return
     if min(args.width) < 1 or not args.dilations or min(args.dilations) < 1:
         parser.error(f"--width {args.width} --dilations {args.dilations}: expected integers >= 1")
     if len(args.width) > 1 and not args.time_only:
         parser.error(f"--width {args.width}: one width per training run (several: --time-only)")
     if args.rounds < 1:
         parser.error(f"--rounds {args.rounds}: expected at least 1")
+    return args
+
+
+def read_study(path: str, args: argparse.Namespace) -> dict:
+    """A study config, its keys checked, with the command line's explicit choices applied."""
+    study = yaml.safe_load(Path(path).read_text())
+    keys = {"objects", "models", "epochs", "train_frames", "equal_steps"}
+    keys |= {"strengths", "per_strength"}
+    if not isinstance(study, dict) or set(study) != keys:
+        found = sorted(study) if isinstance(study, dict) else type(study).__name__
+        raise SystemExit(f"{path}: expected the keys {sorted(keys)}, found {found}")
+    explicit = set(sys.argv)
+    for key, flag in (("objects", "--objects"), ("strengths", "--strengths")):
+        if flag in explicit:
+            study[key] = getattr(args, key)
+    if "--per-strength" in explicit:
+        study["per_strength"] = args.per_strength
+    return study
+
+
+class Rows:
+    """The study's tidy rows (object, epochs, train_frames, steps, shadowing width and
+    dilations, model, family, strength, metric, value)."""
+
+    def __init__(self, shadowing_cfg: LocalConfig, batch_size: int) -> None:
+        self.rows: list[dict] = []
+        self.width = shadowing_cfg.width
+        self.dilations = "-".join(map(str, shadowing_cfg.dilations))
+        self.batch_size = batch_size
+
+    def add(self, name, model, family, strength, values, run: Run | None, width=...) -> None:
+        """Mean of each metric's values; ``run`` None for a baseline (0 epochs, frames and
+        steps)."""
+        width = self.width if width is ... else width
+        epochs, n = (run.epochs, run.train_frames) if run else (0, 0)
+        for metric, v in values.items():
+            self.rows.append(
+                {
+                    "object": name,
+                    "epochs": epochs,
+                    "train_frames": n,
+                    "steps": epochs * -(-n // self.batch_size),
+                    "shadowing_width": width,
+                    "shadowing_dilations": None if width is None else self.dilations,
+                    "model": model,
+                    "family": family,
+                    "strength": strength,
+                    "metric": metric,
+                    "value": float(np.mean(v)),
+                }
+            )
+
+    def table(self) -> pd.DataFrame:
+        return tidy(self.rows)
+
+
+def time_untrained(args, config, shadowing_cfg: LocalConfig, rows: Rows, tmp: Path) -> None:
+    """``--time-only``: the cost of a shape, not of a training (random weights and inputs),
+    every width (and the paper's form) interleaved over ``--rounds`` rounds, median kept."""
+    prt, model_cfg = config["prt"], config["prt_model"]
+    torch.manual_seed(config["seed"])
+    n, c = prt["resolution"], shadowing_cfg.out_channels
+    fresh = {  # (model, width) -> network; the paper's form has no shadowing width
+        ("shadowing", w): ShadowingTransfer(dataclasses.replace(shadowing_cfg, width=w))
+        for w in args.width
+    }
+    if not args.skip_paper:  # the paper's form with an identity normalisation
+        norm = Normalisation(np.zeros(3), np.ones(3), np.zeros((c, n, n)), np.ones((c, 1, 1)))
+        net = build_network(c, model_cfg["widths"], model_cfg["blocks"])
+        fresh[("paper", None)] = TransferNetwork(net, norm)
+    x = untrained_frames(n, config["seed"])
+    for (model, w), module in fresh.items():
+        export_onnx(module.eval(), torch.from_numpy(x), tmp / f"{model}{w}.onnx", rtol=1e-4)
+    timings = {key: [] for key in fresh}
+    for _ in range(args.rounds):  # interleaved: a change of the machine's load hits all
+        for (model, w), module in fresh.items():
+            timings[(model, w)].append(network_timing(module, tmp / f"{model}{w}.onnx", x))
+    for (model, w), per_round in timings.items():
+        median = pd.DataFrame(per_round).median().to_dict()
+        rows.add("untrained", model, "timing", 0.0, median, Run(model, 0, 0), width=w)
+
+
+def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path) -> dict:
+    """Data, every run's training (timed through its shipped ONNX export unless in a
+    learning-curve study) and scores, for one object; the seconds of each part."""
+    config, shadowing_cfg, train_cfg, light, timed = ctx
+    data, seconds = object_data(name, config, strengths, per_strength, tmp)
+    n_bands, model_cfg = config["prt"]["n_bands"], config["prt_model"]
+    start = time.perf_counter()
+    for case, split in cases_of(data).items():
+        preds = baselines(split, data.mean_split, n_bands)
+        for model, values in frame_scores(split, preds, light, model_cfg).items():
+            rows.add(name, model, *case, values, None)
+    seconds[f"{name}_score_baselines"] = time.perf_counter() - start
+    for run in runs:
+        tag = f"{name}_{run.model}_{run.epochs}_{run.train_frames}"
+        start = time.perf_counter()
+        ckpt, predict = train_run(run, data, shadowing_cfg, train_cfg, tmp)
+        seconds[f"{tag}_train"] = time.perf_counter() - start
+        print(f"{tag}: trained in {seconds[f'{tag}_train']:.0f} s", flush=True)
+        if timed:  # the shipped file's cost: its ONNX export
+            onnx_file = ckpt.with_suffix(".onnx")
+            export_deepprt(ckpt, data.split["test"], onnx_file)
+            module = load_transfer_module(ckpt)
+            timing = network_timing(module, onnx_file, raw_inputs(data.split["test"]))
+            rows.add(name, run.model, "timing", 0.0, timing, run)
+        start = time.perf_counter()
+        for case, split in cases_of(data).items():
+            preds = {(run.model, "diffuse"): predict(split)}
+            for model, values in frame_scores(split, preds, light, model_cfg).items():
+                rows.add(name, model, *case, values, run)
+        seconds[f"{tag}_score"] = time.perf_counter() - start
+    return seconds
+
+
+def main() -> None:
+    args = parse_args()
+    if args.merge:
+        merge(args.merge, Path(args.out))
+        return
     torch.set_num_threads(1)
     commit = subprocess.run(  # at the start: the code that measured
         ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False
     ).stdout.strip()
     config = load_config(args.configfile)
     prt, model_cfg = config["prt"], config["prt_model"]
-    transfer_cfg = {
-        "seed": config["seed"],
-        "direction_sets": prt["direction_sets"],
-        "n_bands": prt["n_bands"],
-    }
+    models = ["shadowing"] if args.skip_paper else ["paper", "shadowing"]
+    if args.study:
+        study = read_study(args.study, args)
+        models = [m for m in study["models"] if m in models]
+        runs = study_runs(study, models)
+        # The sequence holds the most frames any run trains on; each run takes a subset.
+        most = max(r.train_frames for r in runs)
+        config["prt"]["frames"] = {**prt["frames"], "train": most}
+        objects, strengths, per_strength = (
+            study[k] for k in ("objects", "strengths", "per_strength")
+        )
+    else:
+        study, objects = None, args.objects
+        runs = [Run(m, args.epochs, prt["frames"]["train"]) for m in models]
+        strengths, per_strength = args.strengths, args.per_strength
     # The variant's config keys from the same config (its dilated core uses neither widths
     # nor blocks; they are stored with it).
     shadowing_cfg = LocalConfig(
@@ -235,157 +478,65 @@ def main() -> None:
         width=args.width[0],
         dilations=tuple(args.dilations),
     )
-    dilations = "-".join(map(str, shadowing_cfg.dilations))
     train_cfg = {**model_cfg, "seed": config["seed"], "epochs": args.epochs, "device": "cpu"}
-    image = lights.procedural_probe(prt["light"], prt["probe_height"])
-    light = sh.project_latlong(image, prt["n_bands"])
-    rows, seconds = [], {}
+    light = sh.project_latlong(
+        lights.procedural_probe(prt["light"], prt["probe_height"]), prt["n_bands"]
+    )
+    rows, seconds = Rows(shadowing_cfg, model_cfg["batch_size"]), {}
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-
-    def add(name, model, family, strength, values, epochs=args.epochs, width=args.width[0]):
-        for metric, v in values.items():
-            rows.append(
-                {
-                    "object": name,
-                    "epochs": epochs,
-                    "shadowing_width": width,
-                    "shadowing_dilations": None if width is None else dilations,
-                    "model": model,
-                    "family": family,
-                    "strength": strength,
-                    "metric": metric,
-                    "value": float(np.mean(v)),
-                }
-            )
-
+    ctx = (config, shadowing_cfg, train_cfg, light, study is None)
     with tempfile.TemporaryDirectory() as tmp_dir:
         tmp = Path(tmp_dir)
-        if args.time_only:  # the cost of a shape, not of a training: random weights and inputs
+        if args.time_only:
             start = time.perf_counter()
-            torch.manual_seed(config["seed"])
-            n, c = prt["resolution"], shadowing_cfg.out_channels
-            fresh = {  # (model, width) -> network; the paper's form has no shadowing width
-                ("shadowing", w): ShadowingTransfer(dataclasses.replace(shadowing_cfg, width=w))
-                for w in args.width
-            }
-            if not args.skip_paper:  # the paper's form with an identity normalisation
-                norm = Normalisation(
-                    np.zeros(3), np.ones(3), np.zeros((c, n, n)), np.ones((c, 1, 1))
-                )
-                net = build_network(c, model_cfg["widths"], model_cfg["blocks"])
-                fresh[("paper", None)] = TransferNetwork(net, norm)
-            x = untrained_frames(n, config["seed"])
-            for (model, w), module in fresh.items():
-                export_onnx(module.eval(), torch.from_numpy(x), tmp / f"{model}{w}.onnx", rtol=1e-4)
-            timings = {key: [] for key in fresh}
-            for _ in range(args.rounds):  # interleaved: a change of the machine's load hits all
-                for (model, w), module in fresh.items():
-                    timings[(model, w)].append(network_timing(module, tmp / f"{model}{w}.onnx", x))
-            for (model, w), per_round in timings.items():
-                median = pd.DataFrame(per_round).median().to_dict()
-                add("untrained", model, "timing", 0.0, median, epochs=0, width=w)
+            time_untrained(args, config, shadowing_cfg, rows, tmp)
             seconds["time_only"] = time.perf_counter() - start
-            io.write_csv(out, tidy(rows))
-            print(tidy(rows).to_string(), flush=True)
-        for name in [] if args.time_only else args.objects:
-            start = time.perf_counter()
-            gim, seq = build_object(name, config, tmp)
-            split = {}
-            for s in ("train", "val", "test"):
-                pos = seq[f"{s}_positions"]
-                directions = prt["reference_directions" if s == "test" else "directions"]
-                offset = frames.ray_offset(pos[0], prt["ray_offset"])
-                split[s] = unseen_scores.traced(
-                    pos, directions, transfer_cfg, offset, None, 1, name, s
-                )
-            seconds[f"{name}_data"] = time.perf_counter() - start
-            print(f"{name}: data in {seconds[f'{name}_data']:.0f} s", flush=True)
-
-            start = time.perf_counter()
-            mean = seq["train_positions"].astype(np.float64).mean(0)
-            ref = prt["reference_directions"]
-            offset = frames.ray_offset(mean, prt["ray_offset"])
-            mean_split = unseen_scores.traced(
-                mean[None], ref, transfer_cfg, offset, None, 1, name, "unseen_mean"
-            )
-            families = unseen.families_for(len(gim["deltas"]) > 0)
-            unseen_splits = {
-                (case.family, case.strength): unseen_scores.traced(
-                    case.positions, ref, transfer_cfg, offset, None, 1, name, case.tag
-                )
-                for case in unseen_scores.cases(
-                    mean, families, args.strengths, args.per_strength, config["seed"], gim["deltas"]
-                )
-            }
-            seconds[f"{name}_unseen_data"] = time.perf_counter() - start
-            print(f"{name}: unseen data in {seconds[f'{name}_unseen_data']:.0f} s", flush=True)
-
-            paper, checkpoints = None, {}
-            if not args.skip_paper:
-                start = time.perf_counter()
-                checkpoints["paper"] = ckpt = tmp / f"{name}_paper.pt"
-                train_deepprt(
-                    split["train"],
-                    split["val"],
-                    "diffuse",
-                    train_cfg,
-                    1,
-                    str(ckpt),
-                    str(tmp / "l.csv"),
-                )
-                paper = DeepPRT(ckpt, device="cpu")
-                seconds[f"{name}_train_paper"] = time.perf_counter() - start
-            start = time.perf_counter()
-            checkpoints["shadowing"] = tmp / f"{name}_local.pt"
-            local = train_local(
-                split["train"],
-                split["val"],
-                shadowing_cfg,
-                train_cfg,
-                1,
-                str(checkpoints["shadowing"]),
-                str(tmp / "l2.csv"),
-            )
-            seconds[f"{name}_train_shadowing"] = time.perf_counter() - start
-            print(
-                f"{name}: trained paper {seconds.get(f'{name}_train_paper', 0):.0f} s, "
-                f"shadowing {seconds[f'{name}_train_shadowing']:.0f} s",
-                flush=True,
-            )
-            for model, ckpt in checkpoints.items():  # the shipped file's cost: its ONNX export
-                onnx_file = ckpt.with_suffix(".onnx")
-                export_deepprt(ckpt, split["test"], onnx_file)
-                timing = network_timing(
-                    load_transfer_module(ckpt), onnx_file, raw_inputs(split["test"])
-                )
-                add(name, model, "timing", 0.0, timing)
-
-            start = time.perf_counter()
-            cases = {("test", 0.0): split["test"], **unseen_splits}
-            for (family, strength), data in cases.items():
-                preds = predictions(data, paper, local, mean_split, prt["n_bands"])
-                for model, values in frame_scores(data, preds, light, model_cfg).items():
-                    add(name, model, family, strength, values)
-            seconds[f"{name}_score"] = time.perf_counter() - start
-            table = tidy(rows)
-            io.write_csv(out, table)  # after every object: a partial run keeps what it measured
+            objects = []
+        for name in objects:
+            seconds |= study_object(name, runs, strengths, per_strength, ctx, rows, tmp)
+            io.write_csv(out, rows.table())  # after every object: a partial run keeps it
+            table = rows.table()
             print(
                 table[(table.object == name) & (table.metric == "rel_l1_diffuse")]
-                .pivot_table(index=["family", "strength"], columns="model", values="value")
+                .pivot_table(
+                    index=["family", "strength"],
+                    columns=["model", "epochs", "train_frames"],
+                    values="value",
+                )
                 .round(4)
                 .to_string(),
                 flush=True,
             )
+        io.write_csv(out, rows.table())
+    write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds)
+
+
+def write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds) -> None:
+    """``out``'s ``.json``: the command, commit, budget, config and seconds of each part."""
+    prt, model_cfg = config["prt"], config["prt_model"]
+    if args.time_only:
+        budget = "timing only (a freshly initialised network)"
+    elif study:
+        budget = (
+            f"learning curves: every model at {study['epochs']} epochs over "
+            f"{study['equal_steps']['frames']} training frames, and at "
+            f"{study['train_frames']} evenly spaced training frames of a sequence of "
+            f"{prt['frames']['train']} for the steps of {study['equal_steps']['epochs']} "
+            f"epochs over {study['equal_steps']['frames']} (batch {model_cfg['batch_size']}); "
+            f"val {prt['frames']['val']} picks the epoch"
+        )
+    else:
+        who = "the shadowing variant" if args.skip_paper else "both models"
+        budget = (
+            f"equal epochs: {args.epochs} for {who} over the same {prt['frames']['train']} "
+            f"training frames (val {prt['frames']['val']} picks the epoch)"
+        )
     meta = {
         "command": f"nice -n {os.nice(0)} python " + " ".join(sys.argv),
         "commit": commit,
-        "budget": "timing only (a freshly initialised network)"
-        if args.time_only
-        else f"equal epochs: {args.epochs} for "
-        + ("the shadowing variant" if args.skip_paper else "both models")
-        + " over the same "
-        f"{prt['frames']['train']} training frames (val {prt['frames']['val']} picks the epoch)",
+        "budget": budget,
+        "runs": [dataclasses.asdict(r) for r in runs],
         "config": {
             "resolution": prt["resolution"],
             "directions": prt["directions"],

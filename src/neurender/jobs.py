@@ -12,15 +12,20 @@ built by the method's ``workflow/rules/helpers/<method>.smk``), and runs a one-l
 
 Each method's ``jobs.py`` holds one function per rule with the signature of :data:`Job`,
 so a job can be called from Python (tests, notebooks) with plain dicts exactly as the
-workflow calls it.
+workflow calls it. A rule that only publishes files under a second name runs
+:func:`copy_files` from here instead.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from neurender import io
 from neurender.logs import log_to_file
+
+log = logging.getLogger(__name__)
 
 #: ``job(inputs, outputs, params, threads)``: file names by role (a path, or a list of
 #: paths for an ``expand``), the rule's config keys, and its thread count.
@@ -36,3 +41,14 @@ def run(smk: Any, job: Job) -> None:
 def _files(named: Any) -> dict[str, str | list[str]]:
     """Snakemake's named file list as a plain dict (an ``expand`` entry as a list)."""
     return {k: v if isinstance(v, str) else list(v) for k, v in named.items()}
+
+
+def copy_files(
+    inputs: Mapping[str, Any], outputs: Mapping[str, Any], params: Mapping[str, Any], threads: int
+) -> None:
+    """Each input copied, atomically, to the output of the same name: the job of a rule
+    that publishes files under a second name (``prt_ship``), kept here so that its shim
+    imports no method's modules (torch, ONNX) for a copy."""
+    for key, source in inputs.items():
+        io.copy_file(source, outputs[key])
+        log.info("copied %s to %s", source, outputs[key])

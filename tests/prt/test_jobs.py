@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from neurender import io, sh
+from neurender.jobs import copy_files
 from neurender.prt import frames, jobs
 from neurender.prt.local_model import ShadowingTransfer
 from neurender.prt.model import DeepPRT, TransferNetwork, load_transfer_module
@@ -179,7 +180,7 @@ def test_ship_copies_the_shipped_variants_bytes(trained, head):
     source = files["shadowing", "diffuse"]
     outputs = {"checkpoint": head / "deepprt_diffuse.pt", "onnx": head / "deepprt_diffuse.onnx"}
     inputs = {"checkpoint": source["checkpoint"], "onnx": source["onnx"]}
-    jobs.prt_ship(inputs, outputs, {"shipped": "shadowing"}, 1)
+    copy_files(inputs, outputs, {"shipped": "shadowing"}, 1)
     for key in ("checkpoint", "onnx"):
         with open(outputs[key], "rb") as got, open(source[key], "rb") as want:
             assert got.read() == want.read()

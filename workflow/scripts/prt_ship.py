@@ -1,4 +1,3 @@
-from neurender.jobs import run
-from neurender.prt import jobs
+from neurender.jobs import copy_files, run
 
-run(snakemake, jobs.prt_ship)
+run(snakemake, copy_files)

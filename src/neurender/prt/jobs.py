@@ -289,14 +289,6 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
 
 
-def prt_ship(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The shipped variant's (``params["shipped"]``) checkpoint and ONNX file copied to
-    the object's ``deepprt_<material>`` files, each atomically."""
-    for key in ("checkpoint", "onnx"):
-        io.copy_file(inputs[key], outputs[key])
-    log.info("shipped the %s variant as %s", params["shipped"], outputs["onnx"])
-
-
 def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """MoMoPRT fitted on the train split, on blendshape weights where the object has them."""
     seq = io.load_npz(inputs["seq"])
