@@ -410,9 +410,10 @@ def time_untrained(args, config, shadowing_cfg: LocalConfig, rows: Rows, tmp: Pa
         rows.add("untrained", model, "timing", 0.0, median, Run(model, 0, 0), width=w)
 
 
-def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path) -> dict:
+def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path, save) -> None:
     """Data, every run's training (timed through its shipped ONNX export unless in a
-    learning-curve study) and scores, for one object; the seconds of each part."""
+    learning-curve study) and scores, for one object, into ``rows``; ``save(seconds)``
+    after each part (a stopped study keeps what it measured)."""
     config, shadowing_cfg, train_cfg, light, timed = ctx
     data, seconds = object_data(name, config, strengths, per_strength, tmp)
     n_bands, model_cfg = config["prt"]["n_bands"], config["prt_model"]
@@ -422,6 +423,7 @@ def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path
         for model, values in frame_scores(split, preds, light, model_cfg).items():
             rows.add(name, model, *case, values, None)
     seconds[f"{name}_score_baselines"] = time.perf_counter() - start
+    save(seconds)
     for run in runs:
         tag = f"{name}_{run.model}_{run.epochs}_{run.train_frames}"
         start = time.perf_counter()
@@ -440,7 +442,7 @@ def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path
             for model, values in frame_scores(split, preds, light, model_cfg).items():
                 rows.add(name, model, *case, values, run)
         seconds[f"{tag}_score"] = time.perf_counter() - start
-    return seconds
+        save(seconds)
 
 
 def main() -> None:
@@ -486,16 +488,21 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     ctx = (config, shadowing_cfg, train_cfg, light, study is None)
+
+    def save(more: dict[str, float]) -> None:
+        seconds.update(more)
+        io.write_csv(out, rows.table())
+        write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds)
+
     with tempfile.TemporaryDirectory() as tmp_dir:
         tmp = Path(tmp_dir)
         if args.time_only:
             start = time.perf_counter()
             time_untrained(args, config, shadowing_cfg, rows, tmp)
-            seconds["time_only"] = time.perf_counter() - start
+            save({"time_only": time.perf_counter() - start})
             objects = []
         for name in objects:
-            seconds |= study_object(name, runs, strengths, per_strength, ctx, rows, tmp)
-            io.write_csv(out, rows.table())  # after every object: a partial run keeps it
+            study_object(name, runs, strengths, per_strength, ctx, rows, tmp, save)
             table = rows.table()
             print(
                 table[(table.object == name) & (table.metric == "rel_l1_diffuse")]
@@ -508,8 +515,6 @@ def main() -> None:
                 .to_string(),
                 flush=True,
             )
-        io.write_csv(out, rows.table())
-    write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds)
 
 
 def write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds) -> None:
