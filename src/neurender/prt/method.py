@@ -181,7 +181,41 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
 #: Issue 27's study, ``benchmarks/prt_generalisation.py``: the shipped model against the
 #: shadowing variant and the two baselines at 3, 8 and 14 epochs.
 GENERALISATION = "benchmarks/results/prt_generalisation.csv"
+#: Issue 27's learning curves, ``benchmarks/prt_generalisation.py --study
+#: config/studies/deepprt.yaml``: budgets in epochs and in distinct training shapes.
+LEARNING_CURVE = "benchmarks/results/prt_learning_curve.csv"
+#: The curves' budgets: the study config's ``equal_steps`` (8 epochs over 240 frames, batch
+#: 5: 384 optimiser steps); baselines, which need no training, have 0 epochs.
+_CURVE_METRIC = "metric == 'rel_l1_diffuse' and family != 'timing'"
 STUDIES = (
+    Study(
+        csv=LEARNING_CURVE,
+        title="Learning curve: epochs",
+        description=(
+            "Relative L1 of the diffuse radiance on the test frames and on each unseen "
+            "deformation family (mean over strengths 0.25, 0.5 and 1) of the paper's model "
+            "and the shadowing variant trained for 2, 4 and 8 epochs over the same 240 "
+            "frames (evenly spaced over a training sequence of 480; 64 x 64, 256 "
+            "directions, references at 1024), beside the unshadowed and static baselines "
+            "(0 epochs)."
+        ),
+        query=f"{_CURVE_METRIC} and (train_frames == 240 or epochs == 0)",
+        index=("object", "model", "epochs"),
+        columns=("family",),
+    ),
+    Study(
+        csv=LEARNING_CURVE,
+        title="Learning curve: distinct training shapes at equal steps",
+        description=(
+            "The same error for 30 to 480 training frames, evenly spaced over one "
+            "sequence of 480, each trained for the same 384 optimiser steps (64 epochs "
+            "over 30 frames, 4 over 480): does variety of shapes help where more epochs "
+            "do not? Baselines at 0 frames."
+        ),
+        query=f"{_CURVE_METRIC} and (steps == 384 or epochs == 0)",
+        index=("object", "model", "train_frames"),
+        columns=("family",),
+    ),
     Study(
         csv=GENERALISATION,
         title="Generalisation study: the test frames",
