@@ -143,9 +143,9 @@ def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
     return io.load_npz(gim_file), io.load_npz(seq_file)
 
 
-def merge(csvs: list[str], out: Path) -> None:
+def merge(csvs: list[str], out: Path, note: str | None = None) -> None:
     """One CSV and sidecar from several runs' (e.g. one object and width each, run side by
-    side)."""
+    side); ``note`` says how they shared the machine (default: niced side by side)."""
     parts, runs = [], []
     for csv in csvs:
         parts.append(pd.read_csv(csv))
@@ -156,7 +156,7 @@ def merge(csvs: list[str], out: Path) -> None:
     if "shadowing_width" in table:  # runs of this script before --width have none
         table = table.astype({"shadowing_width": "Int64"})
     io.write_csv(out, table)
-    note = (
+    note = note or (
         "One run per object, budget and shadowing width (two runs side by side, each one "
         "torch thread, niced, on the shared 2-core machine; each run's command says its "
         "nice), merged with --merge. Seconds and milliseconds are wall times under that "
@@ -296,6 +296,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--configfile", nargs="*", default=[], help="as snakemake's (smoke)")
     parser.add_argument("--out", default=str(ROOT / "benchmarks/results/prt_generalisation.csv"))
     parser.add_argument("--merge", nargs="+", help="merge these runs' CSVs (and sidecars) only")
+    parser.add_argument("--note", help="--merge: how the runs shared the machine")
     parser.add_argument(
         "--study",
         help="a learning-curve study config (config/studies/deepprt.yaml): its runs instead "
@@ -448,7 +449,7 @@ def study_object(name, runs, strengths, per_strength, ctx, rows: Rows, tmp: Path
 def main() -> None:
     args = parse_args()
     if args.merge:
-        merge(args.merge, Path(args.out))
+        merge(args.merge, Path(args.out), args.note)
         return
     torch.set_num_threads(1)
     commit = subprocess.run(  # at the start: the code that measured
