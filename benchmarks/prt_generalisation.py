@@ -216,8 +216,7 @@ def object_data(
     """Trace an object's splits (test at ``reference_directions``), its mean training shape
     and every unseen-deformation case; also the seconds of each part."""
     prt = config["prt"]
-    transfer_cfg = {k: config["prt"][k] for k in ("direction_sets", "n_bands")}
-    transfer_cfg["seed"] = config["seed"]
+    transfer_cfg = {"seed": config["seed"], **{k: prt[k] for k in ("direction_sets", "n_bands")}}
     start, seconds = time.perf_counter(), {}
     gim, seq = build_object(name, config, tmp)
     split = {}

@@ -184,8 +184,8 @@ GENERALISATION = "benchmarks/results/prt_generalisation.csv"
 #: Issue 27's learning curves, ``benchmarks/prt_generalisation.py --study
 #: config/studies/deepprt.yaml``: budgets in epochs and in distinct training shapes.
 LEARNING_CURVE = "benchmarks/results/prt_learning_curve.csv"
-#: The curves' budgets: the study config's ``equal_steps`` (8 epochs over 240 frames, batch
-#: 5: 384 optimiser steps); baselines, which need no training, have 0 epochs.
+#: The rows both curves show. Their budgets: the study config's ``equal_steps`` (8 epochs
+#: over 240 frames, batch 5: 384 optimiser steps); baselines, untrained, have 0 epochs.
 _CURVE_METRIC = "metric == 'rel_l1_diffuse' and family != 'timing'"
 STUDIES = (
     Study(
