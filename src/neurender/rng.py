@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import zlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
+
+if TYPE_CHECKING:
+    import torch
 
 
 def stable_seed(*parts: Any) -> list[int]:
@@ -16,5 +18,7 @@ def stable_seed(*parts: Any) -> list[int]:
 
 def torch_generator(*parts: Any) -> torch.Generator:
     """A torch CPU generator seeded from :func:`stable_seed` of ``parts``."""
+    import torch  # here, so the data jobs that only need numpy seeds never load torch
+
     seed = np.random.SeedSequence(stable_seed(*parts)).generate_state(1, np.uint64)[0]
     return torch.Generator().manual_seed(int(seed >> np.uint64(1)))

@@ -9,7 +9,7 @@ import pyvista as pv
 import trimesh
 
 from neurender import io
-from neurender.prt import animations, jobs, mesh_files
+from neurender.prt import animations, data_jobs, mesh_files
 
 CFG = {
     "seed": 3,
@@ -57,9 +57,9 @@ def write_mesh_sequence(folder, mesh, frames=6, suffix=".ply"):
 def run_jobs(tmp_path, name, inputs, cfg=CFG):
     gim = {"gim": tmp_path / f"{name}_gim.npz", "stats": tmp_path / f"{name}_gim.csv"}
     params = {**cfg, "object": name}
-    jobs.prt_geometry_image(inputs, gim, params, 1)
+    data_jobs.prt_geometry_image(inputs, gim, params, 1)
     seq = tmp_path / f"{name}_seq.npz"
-    jobs.prt_sequence({**inputs, "gim": gim["gim"]}, {"seq": seq}, params, 1)
+    data_jobs.prt_sequence({**inputs, "gim": gim["gim"]}, {"seq": seq}, params, 1)
     stats = io.read_csv(gim["stats"]).set_index("metric")["value"]
     return io.load_npz(gim["gim"]), io.load_npz(seq), stats
 

@@ -1,3 +1,5 @@
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -6,7 +8,7 @@ import pytest
 
 from neurender import io, sh
 from neurender.jobs import copy_files
-from neurender.prt import frames, jobs
+from neurender.prt import data_jobs, frames, jobs
 from neurender.prt.local_model import ShadowingTransfer
 from neurender.prt.model import DeepPRT, TransferNetwork, load_transfer_module
 
@@ -31,16 +33,20 @@ CFG = {
 @pytest.fixture(scope="module")
 def head(tmp_path_factory):
     d = tmp_path_factory.mktemp("head")
-    jobs.prt_probe({}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1)
+    data_jobs.prt_probe(
+        {}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1
+    )
     gim_out = {"gim": d / "gim.npz", "stats": d / "gim.csv"}
-    jobs.prt_geometry_image({}, gim_out, {**CFG, "object": "head"}, 1)
-    jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1)
+    data_jobs.prt_geometry_image({}, gim_out, {**CFG, "object": "head"}, 1)
+    data_jobs.prt_sequence(
+        {"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1
+    )
     return d
 
 
 def _transfer(head, light, run, threads):
     """Test frames of the head with 16 directions into ``head / run``."""
-    jobs.prt_transfer(
+    data_jobs.prt_transfer(
         {"seq": head / "seq.npz", "light": head / light},
         {"frames": head / run, "manifest": head / f"{run}.csv"},
         {**CFG, "object": "head", "split": "test", "directions": 16},
@@ -53,6 +59,24 @@ def test_probe_sh_matches_projection(head):
     np.testing.assert_allclose(
         frames.read_sh_light(head / "sky_sh.csv"), sh.project_latlong(img, 4), rtol=1e-5
     )
+
+
+def test_probe_sh_first_bands_are_the_lower_order_projection(head):
+    img = np.stack([io.read_exr(head / "sky.exr")[c] for c in "RGB"], -1)
+    np.testing.assert_allclose(
+        frames.read_sh_light(head / "sky_sh.csv", 2), sh.project_latlong(img, 2), rtol=1e-5
+    )
+
+
+def test_data_jobs_load_no_torch():
+    """The data jobs' module (imported by about 50 small jobs a run) keeps torch, ONNX and
+    matplotlib out, so each such job starts in a fraction of a second."""
+    code = (
+        "import sys, neurender.prt.data_jobs; "
+        "print([m for m in ('torch', 'onnx', 'onnxruntime', 'matplotlib') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
 
 
 def test_sequence_splits_and_extrapolation(head):
@@ -86,7 +110,7 @@ def test_missing_light_file_is_named(head):
 @pytest.mark.parametrize("name", ["head_linear", "head_excluded"])
 def test_experiment_sequences(head, name):
     params = {**CFG, "object": name}
-    jobs.prt_sequence({"gim": head / "gim.npz"}, {"seq": head / f"{name}.npz"}, params, 1)
+    data_jobs.prt_sequence({"gim": head / "gim.npz"}, {"seq": head / f"{name}.npz"}, params, 1)
     seq = io.load_npz(head / f"{name}.npz")
     assert len(seq["train_positions"]) == 2 and len(seq["test_positions"]) == 3
     if name == "head_linear":
@@ -113,7 +137,7 @@ def trained(head):
     trained by the job as the rule calls it (the paper's form gets its own key)."""
     inputs = {"seq": head / "seq.npz"}
     for split in ("train", "val"):
-        jobs.prt_transfer(
+        data_jobs.prt_transfer(
             {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},
             {"frames": head / split, "manifest": head / f"{split}_manifest.csv"},
             {**CFG, "object": "head", "split": split, "directions": 16},

@@ -4,7 +4,7 @@ import trimesh
 
 from neurender import io
 from neurender.asset_files import AssetFileError
-from neurender.prt import jobs, objects
+from neurender.prt import data_jobs, objects
 from neurender.shapes import BLENDSHAPES
 
 
@@ -40,7 +40,7 @@ def test_user_mesh_disk_is_accepted(tmp_path):
 def _geometry_image(tmp_path, path):
     params = {"object": "mine", "resolution": 8, "source_vertices": 300, "seed": 0}
     out = {"gim": tmp_path / "gim.npz", "stats": tmp_path / "gim.csv"}
-    jobs.prt_geometry_image({"source": str(path)}, out, params, 1)
+    data_jobs.prt_geometry_image({"source": str(path)}, out, params, 1)
     return io.read_csv(out["stats"]).set_index("metric")["value"]
 
 

@@ -3,7 +3,7 @@ import pandas as pd
 import pytest
 
 from neurender import io
-from neurender.prt import MATERIALS, VARIANTS, jobs, unseen, unseen_scores, unshadowed
+from neurender.prt import MATERIALS, VARIANTS, data_jobs, jobs, unseen, unseen_scores, unshadowed
 from neurender.prt.frames import Split, ray_offset
 from neurender.prt.local_model import LocalConfig
 from neurender.prt.model import export_deepprt
@@ -52,11 +52,15 @@ def head(tmp_path_factory):
     """The head's data at 8^2, tiny networks of both variants and MoMoPRT on its blendshape
     weights (trained on random frames: the job's rows, not their values, are tested)."""
     d = tmp_path_factory.mktemp("unseen")
-    jobs.prt_probe({}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1)
-    jobs.prt_geometry_image(
+    data_jobs.prt_probe(
+        {}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1
+    )
+    data_jobs.prt_geometry_image(
         {}, {"gim": d / "gim.npz", "stats": d / "g.csv"}, {**CFG, "object": "head"}, 1
     )
-    jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1)
+    data_jobs.prt_sequence(
+        {"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1
+    )
     rng = np.random.default_rng(0)
     train, val = _random_split(4, rng), _random_split(2, rng)
     light = rng.normal(size=(16, 3))

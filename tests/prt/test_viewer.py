@@ -8,7 +8,7 @@ from PIL import Image
 
 from neurender import sh, viewer_data
 from neurender.geometry import grid_faces
-from neurender.prt import frames, jobs, transfer
+from neurender.prt import data_jobs, frames, jobs, transfer
 from neurender.prt.viewer import TURNS, prt_view
 
 N, K = 6, 16
@@ -82,15 +82,15 @@ def trained(tmp_path_factory):
     network and MoMoPRT."""
     d = tmp_path_factory.mktemp("viewer")
     for probe in ("sky", "sunset"):
-        jobs.prt_probe(
+        data_jobs.prt_probe(
             {}, {"exr": d / f"{probe}.exr", "sh": d / f"{probe}_sh.csv"}, {**CFG, "probe": probe}, 1
         )
     cfg = {**CFG, "object": "head"}
-    jobs.prt_geometry_image({}, {"gim": d / "gim.npz", "stats": d / "gim.csv"}, cfg, 1)
-    jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, cfg, 1)
+    data_jobs.prt_geometry_image({}, {"gim": d / "gim.npz", "stats": d / "gim.csv"}, cfg, 1)
+    data_jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, cfg, 1)
     files = {"seq": str(d / "seq.npz")}
     for split in ("train", "val", "test"):
-        jobs.prt_transfer(
+        data_jobs.prt_transfer(
             {"seq": d / "seq.npz", "light": d / "sky_sh.csv"},
             {"frames": d / split, "manifest": d / f"{split}.csv"},
             {**cfg, "split": split},
@@ -102,7 +102,7 @@ def trained(tmp_path_factory):
     model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3], "variant": "paper"}
     nets = {"checkpoint": d / "net.pt", "onnx": d / "net.onnx", "loss": d / "loss.csv"}
     jobs.prt_train(files, nets, {**CFG, **model}, 1)
-    jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
+    data_jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
     return d, files
 
 

@@ -1,4 +1,4 @@
 from neurender.jobs import run
-from neurender.prt import jobs
+from neurender.prt import data_jobs
 
-run(snakemake, jobs.prt_benchmark)
+run(snakemake, data_jobs.prt_benchmark)

@@ -1,4 +1,4 @@
 from neurender.jobs import run
-from neurender.prt import jobs
+from neurender.prt import data_jobs
 
-run(snakemake, jobs.prt_geometry_image)
+run(snakemake, data_jobs.prt_geometry_image)

@@ -28,7 +28,7 @@ def frames_figure(
     files = sorted(Path(test_dir).glob("frame_*.exr"))[:count]
     if not files:
         raise FileNotFoundError(f"no frame_*.exr files in {test_dir}")
-    light = read_sh_light(light_csv)[: n_bands**2]
+    light = read_sh_light(light_csv, n_bands)
     fig, axes = plt.subplots(len(files), 4, figsize=(10, 2.6 * len(files)), squeeze=False)
     for row, file in zip(axes, files, strict=True):
         fr = read_frame(file, n_bands)

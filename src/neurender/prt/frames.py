@@ -123,11 +123,13 @@ def sh_light_table(coeffs: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def read_sh_light(path: str | Path) -> np.ndarray:
-    """SH light ``(K, 3)`` from a probe's tidy CSV."""
+def read_sh_light(path: str | Path, n_bands: int | None = None) -> np.ndarray:
+    """SH light ``(K, 3)`` from a probe's tidy CSV; its first ``n_bands^2`` coefficients
+    when ``n_bands`` is given."""
     frame = io.read_csv(path, ["k", "channel", "value"])
     wide = frame.pivot(index="k", columns="channel", values="value")
-    return wide[["R", "G", "B"]].to_numpy(np.float64)
+    light = wide[["R", "G", "B"]].to_numpy(np.float64)
+    return light if n_bands is None else light[: n_bands**2]
 
 
 def ray_offset(positions: np.ndarray, relative: float) -> float:

@@ -1,5 +1,7 @@
-"""DeepPRT's jobs, one per rule of ``workflow/rules/prt.smk`` (whose params and input
-functions are in ``workflow/rules/helpers/prt.smk``).
+"""DeepPRT's model and evaluation jobs, one per rule of ``workflow/rules/prt.smk`` (whose
+params and input functions are in ``workflow/rules/helpers/prt.smk``); the jobs that build
+the data (probes, geometry images, sequences, transfer, MoMoPRT) are in
+:mod:`neurender.prt.data_jobs`, which loads no torch.
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
 ``(inputs, outputs, params, threads)``. Their files are under ``results/prt/``:
@@ -14,208 +16,44 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from neurender import io, lights, sh, train, viewer_data
+from neurender import io, train, viewer_data
 from neurender.deployment import deployment_table, read_deployment
 from neurender.prt import (
     MATERIALS,
     SPLITS,
     VARIANTS,
-    animations,
     figures,
     frames,
     noise,
-    objects,
     summary,
-    transfer,
     unseen,
     unseen_scores,
     unshadowed,
 )
+from neurender.prt.data_jobs import split_frames
 from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
-from neurender.prt.geometry_image import parametrise, reconstruction_error, resample
 from neurender.prt.local_model import LocalConfig
 from neurender.prt.model import DeepPRT, export_deepprt
-from neurender.prt.momoprt import MoMoPRT, fit_momoprt
+from neurender.prt.momoprt import MoMoPRT
 from neurender.prt.scores import aggregate, score_frames
-from neurender.prt.sequences import build_sequences, user_sequences
 from neurender.prt.training import train_deepprt, train_local
 from neurender.prt.viewer import prt_view
-from neurender.shapes import BLENDSHAPES, SourceMesh
 from neurender.tables import tidy_rows
 
 log = logging.getLogger(__name__)
-
-#: What :func:`prt_geometry_image` may change in a mesh to map it (counted in its table).
-REPAIRS = ("welded_vertices", "dropped_faces", "reoriented_faces", "seam_edges", "split_edges")
-
-
-def _light(path: str, n_bands: int) -> np.ndarray:
-    return frames.read_sh_light(path)[: n_bands**2]
-
-
-def _split(inputs: dict, seq: dict, split: str, n_bands: int) -> frames.Split:
-    return frames.load_split(
-        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands
-    )
-
-
-# ---------------------------------------------------------------- data
-
-
-def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """A light probe (built in, or the user's EXR ``source``) and its SH projection."""
-    source = inputs.get("source")
-    image = (
-        lights.load_probe(source)
-        if source
-        else lights.procedural_probe(params["probe"], params["probe_height"])
-    )
-    lights.write_probe(outputs["exr"], image)
-    io.write_csv(outputs["sh"], frames.sh_light_table(sh.project_latlong(image, params["n_bands"])))
-
-
-def _user_sequence(inputs: dict, name: str) -> tuple[animations.Frames, animations.Frames | None]:
-    """A user animation's frames and separate test frames, checked up front."""
-    return animations.load_sequence(
-        inputs["frames"], inputs.get("test_frames", []), f"prt.user_sequences.{name}"
-    )
-
-
-def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The object's rest shape (built in, the user's mesh ``source``, or the first of the
-    user's animation ``frames``) made a disk, parametrised on the square and resampled,
-    with its blendshapes, on the ``resolution^2`` grid; the grid's lookup (``face``,
-    ``bary`` in the source triangles) resamples every other frame the same way."""
-    start = time.perf_counter()
-    name, n, seed = params["object"], params["resolution"], params["seed"]
-    counts = {}
-    if "frames" in inputs:
-        sequence, test = _user_sequence(inputs, name)
-        mesh, kind = SourceMesh(sequence.positions[0], sequence.faces), "user_sequence"
-        label = str(sequence.files[0])
-        counts = {"frames": len(sequence.files), "test_frames": len(test.files) if test else 0}
-    elif "source" in inputs:
-        mesh, label, kind = objects.load_user_mesh(inputs["source"]), inputs["source"], "user"
-    else:
-        mesh, label, kind = objects.source_mesh(name, params["source_vertices"], seed), name, name
-    # The plane shares the head's map so S_lin = a S_head + (1 - a) S_plane keeps pixels aligned.
-    mapped = (
-        objects.source_mesh("head", params["source_vertices"], seed) if name == "plane" else mesh
-    )
-    gim, disk = parametrise(mapped.vertices, mapped.faces, n, label)
-    if gim.flipped:
-        raise RuntimeError(f"object {name}: harmonic map still has {gim.flipped} flipped triangles")
-    rest = gim.resample(mesh.faces, mesh.vertices)
-    names = sorted(mesh.blendshapes, key=BLENDSHAPES.index) if mesh.blendshapes else []
-    deltas = (
-        np.stack([gim.resample(mesh.faces, mesh.blendshapes[b]) for b in names])
-        if names
-        else np.zeros((0, n, n, 3))
-    )
-    error = reconstruction_error(mesh.vertices, mesh.faces, rest)
-    io.save_npz(
-        outputs["gim"],
-        rest=rest.astype(np.float32),
-        deltas=deltas.astype(np.float32),
-        blendshapes=np.array(names, dtype=str),
-        uv=gim.uv,
-        face=gim.face,
-        bary=gim.bary,
-        source_vertices=mesh.vertices,
-        source_faces=mesh.faces,
-        kind=np.array(kind),
-    )
-    stats = {
-        "source_vertices": len(mesh.vertices),
-        "source_faces": len(mesh.faces),
-        "flipped_triangles": gim.flipped,
-        "cotangent_weights": int(gim.method == "cotangent"),
-        "recon_error_mean": error["mean"],
-        "recon_error_max": error["max"],
-        "seconds": time.perf_counter() - start,
-        **counts,
-        **{k: disk.changes[k] for k in ("boundary_loops", "genus", "seam_edges", "seam_length")},
-        "stretch_l2": gim.stretch_l2,
-        "stretch_max": gim.stretch_max,
-        **{k: disk.changes[k] for k in ("welded_vertices", "dropped_faces", "reoriented_faces")},
-        "split_edges": gim.split_edges,
-    }
-    repaired = {k: stats[k] for k in REPAIRS if stats[k]}
-    if repaired:
-        log.info("%s: changed to map %s without flipped triangles: %s", name, label, repaired)
-    log.info("%s: %s", name, stats)
-    rows = tidy_rows("prt", name, "geometry image", "all", stats)
-    io.write_csv(outputs["stats"], pd.DataFrame(rows))
-
-
-def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Deformation frames of every split (:mod:`neurender.prt.sequences`); a user
-    animation's frames resampled through its geometry image's lookup."""
-    gim = io.load_npz(inputs["gim"])
-    name = params["object"]
-    if "frames" in inputs:
-        sequence, test = _user_sequence(inputs, name)
-        n = gim["rest"].shape[0]
-
-        def grids(animation: animations.Frames) -> np.ndarray:
-            return np.stack(
-                [
-                    resample(gim["face"], gim["bary"], n, animation.faces, p)
-                    for p in animation.positions
-                ]
-            )
-
-        arrays = user_sequences(name, grids(sequence), grids(test) if test else None, params)
-    else:
-        arrays = build_sequences(name, gim, params)
-    io.save_npz(outputs["seq"], **arrays)
-
-
-def prt_transfer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Ray-traced diffuse and glossy transfer of every frame of a split, one EXR per frame,
-    and the split's manifest."""
-    name, split, directions = params["object"], params["split"], params["directions"]
-    seq = io.load_npz(inputs["seq"])
-    positions = seq[f"{split}_positions"]
-    light = _light(inputs["light"], params["n_bands"])
-    offset = frames.ray_offset(positions[0], params["ray_offset"])
-    Path(outputs["frames"]).mkdir(parents=True, exist_ok=True)
-    rows = []
-    for f in tqdm(range(len(positions)), desc=f"{name} {split}", mininterval=2.0):
-        start = time.perf_counter()
-        normals, diffuse, glossy, rays = transfer.sample_frame(
-            positions[f], directions, params, offset, light, threads, name, split, f, directions
-        )
-        seconds = time.perf_counter() - start
-        file = Path(outputs["frames"]) / f"frame_{f:04d}.exr"
-        frames.write_frame(file, positions[f], normals, diffuse, glossy, params["n_bands"])
-        rows.append(
-            {
-                "frame": f,
-                "split": split,
-                "file": file.name,
-                "directions": directions,
-                "rays": rays,
-                "seconds": seconds,
-                "rays_per_s": rays / seconds,
-                "extrapolated": bool(seq["test_extrapolated"][f]) if split == "test" else False,
-            }
-        )
-    io.write_csv(outputs["manifest"], pd.DataFrame(rows))
 
 
 def prt_noise_floor(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The noise floor of the training-quality ground truth (:mod:`neurender.prt.noise`)."""
     positions = io.load_npz(inputs["seq"])["test_positions"]
-    light = _light(inputs["light"], params["n_bands"])
+    light = frames.read_sh_light(inputs["light"], params["n_bands"])
     rows = noise.noise_floor_rows(
         params["object"], positions, inputs["reference"], light, params, threads
     )
@@ -247,16 +85,6 @@ def prt_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     io.write_csv(outputs["noise"], noise_rows.drop(columns="frame"))
 
 
-def prt_benchmark(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    from neurender.prt.benchmark import run_benchmark
-
-    light = frames.read_sh_light(inputs["light"])
-    run_benchmark(inputs["seq"], light, params, threads, outputs["csv"])
-
-
-# ---------------------------------------------------------------- models
-
-
 def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One network of one variant (``params["variant"]``, :data:`neurender.prt.VARIANTS`)
     trained on an object's train split (val for model selection), and the selected
@@ -265,7 +93,9 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     transfer plus a local network (:func:`~neurender.prt.training.train_local`; glossy
     reads the SH ``light``)."""
     seq = io.load_npz(inputs["seq"])
-    train_split, val_split = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
+    train_split, val_split = (
+        split_frames(inputs, seq, s, params["n_bands"]) for s in ("train", "val")
+    )
     material, data_key = params["material"], io.checksum(list(inputs.values()))
     common = (threads, outputs["checkpoint"], outputs["loss"])
     tensorboard = outputs.get("tensorboard")
@@ -278,7 +108,9 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
             widths=params["widths"],
             blocks=params["blocks"],
         )
-        light = _light(inputs["light"], params["n_bands"]) if "light" in inputs else None
+        light = (
+            frames.read_sh_light(inputs["light"], params["n_bands"]) if "light" in inputs else None
+        )
         train_local(
             train_split, val_split, local_cfg, params, *common, light, data_key, tensorboard
         )
@@ -287,22 +119,6 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
             f"prt_train: variant {params['variant']!r}; expected one of {list(VARIANTS)}"
         )
     export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
-
-
-def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """MoMoPRT fitted on the train split, on blendshape weights where the object has them."""
-    seq = io.load_npz(inputs["seq"])
-    train_split, val_split = (_split(inputs, seq, s, params["n_bands"]) for s in ("train", "val"))
-    use_params = str(seq["kind"]) in ("head", "head_linear", "head_excluded")
-    model = fit_momoprt(
-        train_split,
-        val_split,
-        params["material"],
-        use_params,
-        params["pca_components"],
-        params["ridges"],
-    )
-    model.save(outputs["model"])
 
 
 def _variant_files(
@@ -323,7 +139,7 @@ def _evaluation_scores(
     linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
     rows, panels = [], {}
     for split in ("val", "test"):
-        data = _split(inputs, seq, split, n_bands)
+        data = split_frames(inputs, seq, split, n_bands)
         preds = {key: net.predict(data) for key, net in nets.items()}
         preds |= {("MoMoPRT", m): linear[m].predict(data) for m in MATERIALS}
         extrapolated = np.zeros(len(data.positions), bool)
@@ -348,7 +164,7 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
     ``deployment`` rows) with its training budget (``epochs_<material>``), and Fig. 7."""
     name, variants = params["object"], params["variants"]
     seq = io.load_npz(inputs["seq"])
-    light = _light(inputs["light"], params["n_bands"])
+    light = frames.read_sh_light(inputs["light"], params["n_bands"])
     checkpoints = _variant_files(variants, inputs["deepprt"])
     onnx_files = _variant_files(variants, inputs["onnx"])
     nets = {
@@ -432,8 +248,8 @@ def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> N
     ``deployment`` row (timed as in :func:`prt_evaluate`)."""
     name = params["object"]
     seq = io.load_npz(inputs["seq"])
-    light = _light(inputs["light"], params["n_bands"])
-    data = _split(inputs, seq, "test", params["n_bands"])
+    light = frames.read_sh_light(inputs["light"], params["n_bands"])
+    data = split_frames(inputs, seq, "test", params["n_bands"])
     x, label = path_coordinate(name, data)
     files = zip(params["variants"], inputs["deepprt"], inputs["onnx"], strict=True)
     nets = {
@@ -459,8 +275,8 @@ def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     if len(inputs["probes"]) < 2:
         raise ValueError(f"dynamic lighting needs two light probes, got {inputs['probes']}")
     seq = io.load_npz(inputs["seq"])
-    probes = [_light(p, params["n_bands"]) for p in inputs["probes"][:2]]
-    data = _split(inputs, seq, "test", params["n_bands"])
+    probes = [frames.read_sh_light(p, params["n_bands"]) for p in inputs["probes"][:2]]
+    data = split_frames(inputs, seq, "test", params["n_bands"])
     net = DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads)
     rows, blends = relight_rows(
         params["object"], data, net.predict(data)[0], probes, params["render_resolution"]
@@ -478,7 +294,7 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     figure (paper Fig. 6 generalised)."""
     name, n_bands = params["object"], params["n_bands"]
     gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
-    light = _light(inputs["light"], n_bands)
+    light = frames.read_sh_light(inputs["light"], n_bands)
     variant_files = [(v, m) for v in params["variants"] for m in MATERIALS]  # expand()'s order
     nets = {
         (VARIANTS[v], m): DeepPRT(ckpt, onnx, params["device"], threads)
@@ -540,7 +356,7 @@ def prt_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     and every probe (``probes``: ``<name>_sh.csv`` files) turned about +y."""
     n_bands, name = params["n_bands"], params["object"]
     seq = io.load_npz(inputs["seq"])
-    data = _split(inputs, seq, "test", n_bands)
+    data = split_frames(inputs, seq, "test", n_bands)
     first = frames.Split(*(getattr(data, f.name)[:1] for f in dataclasses.fields(data)))
     predictions = {
         "DeepPRT": DeepPRT(inputs["deepprt"], inputs["onnx"], params["device"], threads).predict(
@@ -548,7 +364,10 @@ def prt_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         ),
         "MoMoPRT": MoMoPRT.load(inputs["momoprt"]).predict(first),
     }
-    probes = {Path(p).name.removesuffix("_sh.csv"): _light(p, n_bands) for p in inputs["probes"]}
+    probes = {
+        Path(p).name.removesuffix("_sh.csv"): frames.read_sh_light(p, n_bands)
+        for p in inputs["probes"]
+    }
     viewer_data.write(
         outputs["viewer"],
         "prt",
