@@ -72,7 +72,7 @@ from neurender import io, lights, sh
 from neurender.nn.inference import engine_milliseconds, export_onnx
 from neurender.nn.unet import count_parameters
 from neurender.plan import load_config
-from neurender.prt import frames, jobs, unseen, unseen_scores
+from neurender.prt import data_jobs, frames, unseen, unseen_scores
 from neurender.prt.local_model import LocalConfig, ShadowingTransfer
 from neurender.prt.model import (
     DeepPRT,
@@ -129,7 +129,7 @@ def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
     prt = config["prt"]
     base = {"seed": config["seed"], "object": name}
     gim_file, seq_file = tmp / f"{name}_gim.npz", tmp / f"{name}_seq.npz"
-    jobs.prt_geometry_image(
+    data_jobs.prt_geometry_image(
         {},
         {"gim": str(gim_file), "stats": str(tmp / f"{name}_stats.csv")},
         {**base, "resolution": prt["resolution"], "source_vertices": prt["source_vertices"]},
@@ -137,7 +137,7 @@ def build_object(name: str, config: dict, tmp: Path) -> tuple[dict, dict]:
     )
     keys = ("frames", "experiment_points", "experiment_train_frames", "linear_range")
     keys += ("excluded_expression",)
-    jobs.prt_sequence(
+    data_jobs.prt_sequence(
         {"gim": str(gim_file)}, {"seq": str(seq_file)}, {**base, **{k: prt[k] for k in keys}}, 1
     )
     return io.load_npz(gim_file), io.load_npz(seq_file)
