@@ -99,7 +99,12 @@ def test_the_job_writes_a_row_per_family_strength_model_and_metric(head):
     assert (head / "unseen.png").stat().st_size > 0
     assert np.isfinite(table.value).all()
     metrics = {f"{s}_{m}" for s in ("ssim", "rel_l1_radiance") for m in MATERIALS}
-    models = {*VARIANTS.values(), unseen_scores.UNSHADOWED, unseen_scores.STATIC}
+    models = {
+        *VARIANTS.values(),
+        unseen_scores.UNSHADOWED,
+        unseen_scores.STATIC,
+        unseen_scores.DISKS,
+    }
     for family in unseen.FAMILIES:  # the head has blendshapes: every family
         for strength in CFG["unseen_strengths"]:
             sel = table[(table.family == family) & (table.strength == strength)]
@@ -167,13 +172,40 @@ def test_the_unshadowed_baseline_is_exact_on_a_plane_even_rotated():
     for label, shape in {"plane": plane, "tilted": tilted, "dome": _dome()}.items():
         data = _traced(shape[None], 1024, sky)
         mean = _traced(shape[None], 64, sky)
-        preds = unseen_scores.baselines(data, mean, 4, coeffs)
+        preds = unseen_scores.baselines(data, mean, 4, coeffs, sky)
         preds = {k: v for k, v in preds.items() if k[0] == unseen_scores.UNSHADOWED}
         values = unseen_scores.frame_scores(data, preds, sky, RENDER)[unseen_scores.UNSHADOWED]
         errors[label] = {m: values[f"rel_l1_radiance_{m}"][0] for m in MATERIALS}
     for m in MATERIALS:
         assert errors["plane"][m] < 0.02 and errors["tilted"][m] < 0.02, errors
         assert errors["dome"][m] > 5 * max(errors["plane"][m], errors["tilted"][m]), errors
+
+
+def _trough(n=16):
+    """A deep V-shaped trough along y: each wall hides much of the sky from the other."""
+    t = np.linspace(-1.0, 1.0, n)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    return np.stack([xx, yy, 1.5 * np.abs(xx)], -1)
+
+
+def test_the_disk_occlusion_baseline_is_exact_on_a_plane_and_sees_a_trough_shadow_itself():
+    """No rays, no learning: on a plane it is the unshadowed transfer; in a trough, whose
+    walls occlude each other, it is far closer to the traced transfer than unshadowed."""
+    t = np.linspace(-1.0, 1.0, 16)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    plane = np.stack([xx, yy, np.zeros_like(xx)], -1)[None]
+    assert np.allclose(
+        unseen.disk_occlusion_baseline(plane, 4), unseen.unshadowed_baseline(plane, 4), atol=1e-6
+    )
+    sky = _sky()
+    coeffs = unshadowed.glossy_polynomial(sky)
+    data = _traced(_trough()[None], 1024, sky)
+    preds = unseen_scores.baselines(data, data, 4, coeffs, sky)
+    values = unseen_scores.frame_scores(data, preds, sky, RENDER)
+    for m in MATERIALS:
+        disks = values[unseen_scores.DISKS][f"rel_l1_radiance_{m}"][0]
+        unshadowed_err = values[unseen_scores.UNSHADOWED][f"rel_l1_radiance_{m}"][0]
+        assert disks < 0.25 * unshadowed_err, (m, disks, unshadowed_err)
 
 
 def _table(shipped, unshadowed_err, static_err, paper=None):

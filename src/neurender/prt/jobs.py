@@ -290,8 +290,8 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     every family of :func:`neurender.prt.unseen.families_for` at every strength, its
     ground truth traced here, scored for each DeepPRT variant, MoMoPRT (where it can
     predict: on positions for every family, on blendshape weights for ``extrapolation``)
-    and the unshadowed and static baselines; the table and the error-against-strength
-    figure (paper Fig. 6 generalised)."""
+    and the unshadowed, static and disk-occlusion baselines; the table and the
+    error-against-strength figure (paper Fig. 6 generalised)."""
     name, n_bands = params["object"], params["n_bands"]
     gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], n_bands)
@@ -332,7 +332,7 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         for material, model in linear.items():
             if model.basis.size or case.params is not None:  # positions, or its weights
                 preds[("MoMoPRT", material)] = model.predict(data)
-        preds |= unseen_scores.baselines(data, mean_split, n_bands, coeffs)
+        preds |= unseen_scores.baselines(data, mean_split, n_bands, coeffs, light)
         values = unseen_scores.frame_scores(data, preds, light, params)
         rows += unseen_scores.case_rows(name, case, values)
     table = pd.DataFrame(rows)

@@ -3,10 +3,12 @@
 The paper's network (:mod:`neurender.prt.model`) maps the whole P and N images to the
 whole transfer, so it can memorise the training animation's global pose. This variant:
 
-* predicts only what shadowing removes: the target is the true transfer minus the
-  analytic unshadowed transfer of the input normals (:mod:`neurender.prt.unshadowed`),
-  which is exact for any shape, so where nothing occludes the answer is right without
-  learning;
+* predicts only what its estimate of shadowing misses: the target is the true transfer
+  minus the analytic unshadowed transfer of the input normals
+  (:mod:`neurender.prt.unshadowed`), exact where nothing occludes, plus what the
+  surface's own elements occlude as disks (:mod:`neurender.prt.disk_occlusion`, a
+  ``grid^4``-pair sum over the whole shape: occluders far apart on the geometry image,
+  such as a cloth's folds, are seen by no local network);
 * sees positions only relative to their neighbourhood: ``P`` minus its ``window x window``
   mean (average pooling), divided by ``window / 2`` times the frame's mean grid-edge
   length. These inputs do not change under a translation or a uniform scaling of the
@@ -37,7 +39,7 @@ from torch import nn
 
 from neurender import train
 from neurender.nn.unet import ResUNet
-from neurender.prt import unshadowed
+from neurender.prt import disk_occlusion, unshadowed
 
 #: Core networks a :class:`LocalConfig` can name.
 ARCHITECTURES = ("dilated", "unet")
@@ -57,10 +59,13 @@ class LocalConfig:
     widths: tuple[int, ...]  # unet: channels per level
     blocks: int  # unet: ResNet blocks per level
     window: int = 15  # side of the local-mean window, pixels (odd)
+    occlusion_grid: int = 16  # blocks per side of the disk-occlusion estimate (0: none)
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:
             raise ValueError(f"architecture {self.architecture!r}: expected one of {ARCHITECTURES}")
+        if self.occlusion_grid < 0:
+            raise ValueError(f"occlusion_grid {self.occlusion_grid}: expected >= 0 (0: none)")
         if self.window < 1 or self.window % 2 == 0:
             raise ValueError(f"window {self.window}: expected an odd number of pixels >= 1")
         self.dilations, self.widths = tuple(self.dilations), tuple(self.widths)
@@ -149,14 +154,20 @@ def local_features(x: torch.Tensor, window: int) -> torch.Tensor:
 
 class ShadowingTransfer(nn.Module):
     """Raw P and N images ``(B, 6, n, n)`` to transfer ``(B, C, n, n)`` in physical units:
-    the unshadowed transfer of N plus ``core(local_features) * t_scale + t_offset``.
+    the :meth:`base` estimate plus ``core(local_features) * t_scale + t_offset``.
 
     Buffers: ``t_offset``, ``t_scale`` ``(1, C, 1, 1)`` (the shadowing target's affine
     normalisation) and, for glossy, ``glossy_coeffs`` ``(M, 3 K)``
-    (:func:`neurender.prt.unshadowed.glossy_polynomial` of the training light).
+    (:func:`neurender.prt.unshadowed.glossy_polynomial` of the training light) and that
+    light, ``light`` ``(K, 3)`` (the glossy disk-occlusion estimate's).
     """
 
-    def __init__(self, cfg: LocalConfig, glossy_coeffs: np.ndarray | None = None):
+    def __init__(
+        self,
+        cfg: LocalConfig,
+        glossy_coeffs: np.ndarray | None = None,
+        light: np.ndarray | None = None,
+    ):
         super().__init__()
         self.cfg = cfg
         c = cfg.out_channels
@@ -167,13 +178,16 @@ class ShadowingTransfer(nn.Module):
         self.register_buffer("t_offset", torch.zeros(1, c, 1, 1))
         self.register_buffer("t_scale", torch.ones(1, c, 1, 1))
         if cfg.material == "glossy":
-            if glossy_coeffs is None:
-                raise ValueError("a glossy ShadowingTransfer needs the light's glossy_coeffs")
+            if glossy_coeffs is None or light is None:
+                raise ValueError("a glossy ShadowingTransfer needs the light and its glossy_coeffs")
             self.register_buffer(
                 "glossy_coeffs", torch.as_tensor(glossy_coeffs, dtype=torch.float32)
             )
+            if isinstance(light, np.ndarray):
+                light = light.copy()  # contiguous (a slice of a probe may not be)
+            self.register_buffer("light", torch.as_tensor(light, dtype=torch.float32))
         else:
-            self.glossy_coeffs = None
+            self.glossy_coeffs = self.light = None
 
     def unshadowed(self, normals: torch.Tensor) -> torch.Tensor:
         """``(B, C, n, n)`` unshadowed transfer of normal images ``(B, 3, n, n)``."""
@@ -184,21 +198,32 @@ class ShadowingTransfer(nn.Module):
             t = unshadowed.glossy(n, self.glossy_coeffs)
         return t.permute(0, 3, 1, 2)
 
+    def base(self, x: torch.Tensor) -> torch.Tensor:
+        """``(B, C, n, n)`` estimate without learning of raw inputs ``(B, 6, n, n)``: the
+        unshadowed transfer of N minus what the disks occlude (if ``occlusion_grid``)."""
+        t = self.unshadowed(x[:, 3:])
+        if self.cfg.occlusion_grid:
+            t = t - disk_occlusion.occluded_transfer(
+                x, self.cfg.n_bands, self.cfg.occlusion_grid, self.light
+            )
+        return t
+
     def shadowing(self, x: torch.Tensor) -> torch.Tensor:
         """The core network's normalised output ``(B, C, n, n)`` (what training fits)."""
         return self.core(local_features(x, self.cfg.window))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.unshadowed(x[:, 3:]) + self.shadowing(x) * self.t_scale + self.t_offset
+        return self.base(x) + self.shadowing(x) * self.t_scale + self.t_offset
 
     def fit_normalisation(self, x: np.ndarray, targets: np.ndarray, margin: float = 0.1) -> None:
         """Set ``t_offset``, ``t_scale`` from training inputs ``(F, 6, n, n)`` and targets
-        ``(F, C, n, n)``: the shadowing term ``targets - unshadowed`` divided per channel by
-        its standard deviation (dilated), or mapped to [0, 1] with ``margin`` on both
-        sides (unet, whose output is a sigmoid)."""
+        ``(F, C, n, n)``: the term ``targets - base`` divided per channel by its standard
+        deviation (dilated), or mapped to [0, 1] with ``margin`` on both sides (unet,
+        whose output is a sigmoid)."""
         with torch.no_grad():
-            normals = torch.from_numpy(np.ascontiguousarray(x[:, 3:], np.float32))
-            gap = targets - self.unshadowed(normals).numpy()
+            inputs = torch.from_numpy(np.ascontiguousarray(x, np.float32))
+            base = [self.base(inputs[i : i + 16]).numpy() for i in range(0, len(inputs), 16)]
+            gap = targets - np.concatenate(base)
         if self.cfg.architecture == "dilated":
             offset = np.zeros(gap.shape[1])
             scale = np.maximum(gap.std(axis=(0, 2, 3)), 1e-6)
@@ -210,8 +235,8 @@ class ShadowingTransfer(nn.Module):
         self.t_scale.copy_(torch.as_tensor(scale, dtype=torch.float32).reshape(1, -1, 1, 1))
 
     def encode(self, x: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
-        """Targets ``(B, C, n, n)`` as the normalised shadowing term the core should output."""
-        return (targets - self.unshadowed(x[:, 3:]) - self.t_offset) / self.t_scale
+        """Targets ``(B, C, n, n)`` as the normalised term the core should output."""
+        return (targets - self.base(x) - self.t_offset) / self.t_scale
 
 
 def load_local(checkpoint: str | Path) -> ShadowingTransfer:
@@ -219,7 +244,8 @@ def load_local(checkpoint: str | Path) -> ShadowingTransfer:
     :func:`neurender.prt.training.train_local` (best validation epoch)."""
     state = train.load_checkpoint(checkpoint)
     extra = state["extra"]
-    coeffs = extra.get("glossy_coeffs")
-    model = ShadowingTransfer(LocalConfig(**extra["local_config"]), coeffs)
+    model = ShadowingTransfer(
+        LocalConfig(**extra["local_config"]), extra.get("glossy_coeffs"), extra.get("light")
+    )
     model.load_state_dict(state["model"])
     return model.eval()

@@ -129,7 +129,8 @@ def train_local(
         if light is None:
             raise ValueError("training the glossy shadowing variant needs the SH light")
         coeffs = unshadowed.glossy_polynomial(light[: local_cfg.n_bands**2])
-    model = ShadowingTransfer(local_cfg, coeffs)
+    k = local_cfg.n_bands**2
+    model = ShadowingTransfer(local_cfg, coeffs, None if coeffs is None else light[:k])
     x_train = raw_inputs(train_split)
     model.fit_normalisation(x_train, train_split.targets(material))
     make = lambda x, s: TensorDataset(  # noqa: E731
@@ -148,6 +149,7 @@ def train_local(
         extra_state={
             "local_config": dataclasses.asdict(local_cfg),
             "glossy_coeffs": None if coeffs is None else torch.from_numpy(coeffs),
+            "light": None if coeffs is None else torch.tensor(np.ascontiguousarray(light[:k])),
             "material": material,
             "parameters": count_parameters(model),
         },

@@ -187,6 +187,42 @@ def unshadowed_glossy_baseline(positions: np.ndarray, coeffs: np.ndarray) -> np.
     return np.ascontiguousarray(np.moveaxis(t, -1, 1), np.float32)
 
 
+def _occluded(positions: np.ndarray, n_bands: int, light: np.ndarray | None) -> np.ndarray:
+    """:func:`neurender.prt.disk_occlusion.occluded_transfer` ``(F, C, n, n)`` of frames
+    ``(F, n, n, 3)`` with their grid normals, at the shadowing variant's default grid."""
+    import torch  # here: the DAG reads this module's families without torch
+
+    from neurender.prt.disk_occlusion import occluded_transfer
+    from neurender.prt.local_model import LocalConfig
+
+    normals = np.stack([grid_normals(p) for p in positions])
+    x = torch.from_numpy(
+        np.ascontiguousarray(
+            np.moveaxis(np.concatenate([positions, normals], -1), -1, 1), np.float64
+        )
+    )
+    grid = LocalConfig.__dataclass_fields__["occlusion_grid"].default
+    with torch.no_grad():
+        lit = None if light is None else torch.from_numpy(np.ascontiguousarray(light, np.float64))
+        return occluded_transfer(x, n_bands, grid, lit).numpy()
+
+
+def disk_occlusion_baseline(positions: np.ndarray, n_bands: int) -> np.ndarray:
+    """``(F, K, n, n)``: :func:`unshadowed_baseline` minus what the frames' own elements
+    occlude as disks (:mod:`neurender.prt.disk_occlusion`; no rays, no learning)."""
+    occluded = _occluded(positions, n_bands, None)
+    return (unshadowed_baseline(positions, n_bands) - occluded).astype(np.float32)
+
+
+def disk_occlusion_glossy_baseline(
+    positions: np.ndarray, coeffs: np.ndarray, light: np.ndarray
+) -> np.ndarray:
+    """``(F, 3 K, n, n)``: :func:`unshadowed_glossy_baseline` minus the disks' glossy
+    estimate under ``light`` ``(K, 3)`` (whose ``coeffs`` those are)."""
+    occluded = _occluded(positions, math.isqrt(light.shape[0]), light)
+    return (unshadowed_glossy_baseline(positions, coeffs) - occluded).astype(np.float32)
+
+
 def static_baseline(mean_transfer: np.ndarray, frames: int) -> np.ndarray:
     """``(F, C, n, n)``: the mean shape's transfer ``(C, n, n)`` for every frame (classic PRT
     of one pose, never updated)."""

@@ -33,7 +33,7 @@ from neurender.prt.frames import Split
 from neurender.tables import Target, threshold, tidy_rows
 
 #: Names of the baselines in the tables.
-UNSHADOWED, STATIC = "unshadowed", "static"
+UNSHADOWED, STATIC, DISKS = "unshadowed", "static", "disk occlusion"
 #: The ``split`` of the benchmark's rows.
 SPLIT = "unseen"
 
@@ -124,12 +124,19 @@ def traced(
     )
 
 
-def baselines(data: Split, mean: Split, n_bands: int, glossy_coeffs: np.ndarray) -> dict:
-    """``(model, material) -> (F, C, n, n)``: the unshadowed and the static baselines of
-    every frame of ``data`` (``mean``: the mean training shape's one-frame split;
-    ``glossy_coeffs``: :func:`neurender.prt.unshadowed.glossy_polynomial` of the light)."""
+def baselines(
+    data: Split, mean: Split, n_bands: int, glossy_coeffs: np.ndarray, light: np.ndarray
+) -> dict:
+    """``(model, material) -> (F, C, n, n)``: the baselines that need no learning, for
+    every frame of ``data``: unshadowed, static and the disks' occlusion estimate
+    (``mean``: the mean training shape's one-frame split; ``glossy_coeffs``:
+    :func:`neurender.prt.unshadowed.glossy_polynomial` of the SH ``light`` ``(K, 3)``)."""
     frames = len(data.positions)
     return {
+        (DISKS, "diffuse"): unseen.disk_occlusion_baseline(data.positions, n_bands),
+        (DISKS, "glossy"): unseen.disk_occlusion_glossy_baseline(
+            data.positions, glossy_coeffs, light
+        ),
         (UNSHADOWED, "diffuse"): unseen.unshadowed_baseline(data.positions, n_bands),
         (UNSHADOWED, "glossy"): unseen.unshadowed_glossy_baseline(data.positions, glossy_coeffs),
         (STATIC, "diffuse"): unseen.static_baseline(mean.targets("diffuse")[0], frames),

@@ -1,0 +1,101 @@
+"""What a deforming surface occludes, estimated from disks, without rays or learning.
+
+After Bunnell's dynamic ambient occlusion (M. Bunnell, "Dynamic Ambient Occlusion and
+Indirect Lighting", GPU Gems 2, ch. 14, Addison-Wesley 2005): the surface is cut into
+emitter elements, each a disk of its patch's area; a receiver at ``p`` with normal ``n``
+sees element ``e`` at ``q_e`` (vector area ``a_e``) in the direction ``w = (q_e - p) / d``
+under the solid angle of a disk of area ``|a_e . w|`` facing it at distance ``d``,
+``Omega_e = 2 pi (1 - 1 / sqrt(1 + |a_e . w| / (pi d^2)))``. Both sides of an element
+occlude (a cloth is two-sided). The transfer the elements remove is then, in the SH of
+:mod:`neurender.sh` and the units of :mod:`neurender.prt.transfer`:
+
+* diffuse ``o_k = sum_e Omega_e max(0, n . w_e) y_k(w_e)`` (the cosine-weighted
+  visibility integral of the occluded directions);
+* glossy ``o_{c,k} = sum_e Omega_e [n . w_e > 0] L_c(w_e) y_k(w_e)`` for an SH light
+  ``L`` (colour-major, as :func:`neurender.prt.unshadowed.glossy`).
+
+Elements are not depth-sorted, so overlapping occluders are counted twice (Bunnell's
+multi-pass correction is not done): the estimate is what a network corrects, not the
+answer. Emitters and receivers are the same ``grid x grid`` blocks of the geometry
+image (:func:`block_stride`; block means of P, summed vector areas, renormalised mean
+normals); the receivers' result is upsampled bilinearly to the image, so the cost is
+``grid^4`` pairs at any resolution (65,536 at the default 16). Geometry images
+``(B, 3, n, n)``; every operation exports to ONNX, so a shipped graph computes it from
+raw P and N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F  # noqa: N812 - the usual name
+
+from neurender import sh
+
+
+def vector_area(positions: torch.Tensor) -> torch.Tensor:
+    """``(B, 3, n, n)`` vector area of each pixel's patch of a geometry image ``(B, 3, n,
+    n)``: the cross product of its central differences along the rows and columns
+    (one-sided at the borders), in squared world units, along ``dP/du x dP/dv``."""
+    padded = F.pad(positions, (1, 1, 1, 1), mode="replicate")
+    du = padded[:, :, 1:-1, 2:] - padded[:, :, 1:-1, :-2]
+    dv = padded[:, :, 2:, 1:-1] - padded[:, :, :-2, 1:-1]
+    # At the borders the difference spans one pixel, not two.
+    n = positions.shape[-1]
+    span = torch.full((n,), 2.0, dtype=positions.dtype, device=positions.device)
+    span[0] = span[-1] = 1.0
+    du, dv = du / span, dv / span[:, None]
+    ax, ay, az = du.unbind(1)
+    bx, by, bz = dv.unbind(1)
+    return torch.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], 1)
+
+
+def block_stride(n: int, grid: int) -> int:
+    """Pixels per block side of an ``n``-pixel image cut into about ``grid`` blocks per
+    side: the largest divisor of ``n`` up to ``n / grid`` (1 where ``n <= grid``), so the
+    blocks tile the image (``grid`` of them where ``grid`` divides ``n``)."""
+    if grid < 1:
+        raise ValueError(f"occlusion grid {grid}: expected at least 1")
+    return next(s for s in range(max(1, n // grid), 0, -1) if n % s == 0)
+
+
+def occluded_transfer(
+    x: torch.Tensor, n_bands: int, grid: int = 16, light: torch.Tensor | None = None
+) -> torch.Tensor:
+    """The transfer the surface's own elements remove (module docstring).
+
+    Args:
+        x: ``(B, 6, n, n)`` raw P (world units) and N (unit vectors) images.
+        n_bands: SH bands ``K = n_bands^2``.
+        grid: blocks per side of the emitters and the receivers.
+        light: ``(K, 3)`` SH light for the glossy estimate; None for diffuse.
+
+    Returns:
+        ``(B, K, n, n)`` diffuse, or ``(B, 3 K, n, n)`` glossy (colour-major).
+    """
+    batch, _, n, _ = x.shape
+    stride = block_stride(n, grid)
+    p, normals = x[:, :3], x[:, 3:6]
+    centres = F.avg_pool2d(p, stride).flatten(2)  # (B, 3, E)
+    areas = (F.avg_pool2d(vector_area(p), stride) * stride**2).flatten(2)
+    receivers = centres[:, :, :, None]  # (B, 3, R, 1): the same blocks
+    receiver_normals = F.normalize(F.avg_pool2d(normals, stride), dim=1).flatten(2)[..., None]
+    v = centres[:, :, None, :] - receivers  # (B, 3, R, E)
+    d2 = (v * v).sum(1).clamp_min(1e-12)
+    w = v * torch.rsqrt(d2)[:, None]
+    facing = (areas[:, :, None, :] * w).sum(1).abs()
+    omega = 2.0 * math.pi * (1.0 - torch.rsqrt(1.0 + facing / (math.pi * d2)))
+    cosine = (receiver_normals * w).sum(1)  # (B, R, E)
+    y = sh.eval_sh(w.permute(0, 2, 3, 1), n_bands)  # (B, R, E, K)
+    if light is None:
+        blocks = torch.einsum("bre,brek->bkr", omega * cosine.clamp_min(0.0), y)
+    else:
+        weight = omega * (cosine > 0).to(omega.dtype)
+        radiance = y @ light.to(y.dtype)  # (B, R, E, 3)
+        blocks = torch.einsum("bre,brec,brek->bckr", weight, radiance, y).flatten(1, 2)
+    side = n // stride
+    blocks = blocks.reshape(batch, -1, side, side)
+    if side == n:
+        return blocks
+    return F.interpolate(blocks, size=(n, n), mode="bilinear", align_corners=False)
