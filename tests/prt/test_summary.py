@@ -156,10 +156,12 @@ def test_no_radiance_target_without_the_paper_form():
 
 
 def test_the_fig6_targets_are_those_of_the_shipped_variant():
-    """On the excluded-expression path the shadowing variant is below MoMoPRT everywhere
-    and 2x below at the far end; the paper's form is above MoMoPRT at its far end."""
+    """Past the middle of the excluded-expression path the shadowing variant is below
+    MoMoPRT (not before it: that point does not count) and 2x below at the far end; the
+    paper's form is above MoMoPRT there."""
     rows = []
-    for x, (paper, shadowing, momoprt) in enumerate([(1.0, 0.5, 0.8), (3.0, 1.0, 2.0)]):
+    points = [(0.0, 1.0, 0.5, 0.2), (0.75, 1.0, 0.5, 0.8), (1.0, 3.0, 1.0, 2.0)]
+    for x, paper, shadowing, momoprt in points:
         for model, value in (("DeepPRT", paper), ("DeepPRT shadowing", shadowing)):
             rows += tidy_rows("prt", "head_excluded", model, "test", {"l2rgb_diffuse": value}, x=x)
         rows += tidy_rows(
@@ -175,3 +177,19 @@ def test_the_fig6_targets_are_those_of_the_shipped_variant():
         "MoMoPRT / DeepPRT L2-RGB at the far end >= 1.5"
     ].measured == (pytest.approx(2 / 3))
     assert not paper.met.any()
+
+
+@pytest.mark.parametrize(("inside", "met"), [(0.9, True), (1.1, False)])
+def test_the_linear_blend_target_counts_only_the_extrapolated_points(inside, met):
+    """Inside the training range [0, 1] MoMoPRT may win; outside it the variant must."""
+    rows = []
+    for x, shadowing in ((-0.25, inside), (0.5, 5.0), (1.25, 0.5)):
+        for model, value in (("DeepPRT shadowing", shadowing), ("MoMoPRT", 1.0)):
+            rows += tidy_rows("prt", "head_linear", model, "test", {"l2rgb_diffuse": value}, x=x)
+    table = pd.DataFrame(rows)
+    found = target_frame(pd.DataFrame(columns=table.columns), [table], "DeepPRT shadowing")
+    row = found.set_index("check").loc[
+        "DeepPRT shadowing L2-RGB below MoMoPRT's over the whole extrapolated range "
+        "(x < 0 or x > 1)"
+    ]
+    assert row.met == met and row.measured == (1.0 if met else 0.5)
