@@ -88,12 +88,15 @@ def occluded_transfer(
     omega = 2.0 * math.pi * (1.0 - torch.rsqrt(1.0 + facing / (math.pi * d2)))
     cosine = (receiver_normals * w).sum(1)  # (B, R, E)
     y = sh.eval_sh(w.permute(0, 2, 3, 1), n_bands)  # (B, R, E, K)
+    # Sums over the emitters as batched matrix products, (B, R, ., E) @ (B, R, E, K),
+    # which ONNX Runtime runs far faster than the equivalent einsum.
     if light is None:
-        blocks = torch.einsum("bre,brek->bkr", omega * cosine.clamp_min(0.0), y)
+        weights = (omega * cosine.clamp_min(0.0))[:, :, None, :]  # (B, R, 1, E)
     else:
-        weight = omega * (cosine > 0).to(omega.dtype)
         radiance = y @ light.to(y.dtype)  # (B, R, E, 3)
-        blocks = torch.einsum("bre,brec,brek->bckr", weight, radiance, y).flatten(1, 2)
+        lit = (omega * (cosine > 0).to(omega.dtype))[..., None] * radiance
+        weights = lit.transpose(2, 3)  # (B, R, 3, E)
+    blocks = (weights @ y).permute(0, 2, 3, 1).flatten(1, 2)  # (B, C K, R)
     side = n // stride
     blocks = blocks.reshape(batch, -1, side, side)
     if side == n:
