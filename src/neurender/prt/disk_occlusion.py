@@ -33,6 +33,9 @@ import torch.nn.functional as F  # noqa: N812 - the usual name
 
 from neurender import sh
 
+#: Blocks per side of the emitters and receivers by default (65,536 pairs).
+DEFAULT_GRID = 16
+
 
 def vector_area(positions: torch.Tensor) -> torch.Tensor:
     """``(B, 3, n, n)`` vector area of each pixel's patch of a geometry image ``(B, 3, n,
@@ -61,7 +64,7 @@ def block_stride(n: int, grid: int) -> int:
 
 
 def occluded_transfer(
-    x: torch.Tensor, n_bands: int, grid: int = 16, light: torch.Tensor | None = None
+    x: torch.Tensor, n_bands: int, grid: int = DEFAULT_GRID, light: torch.Tensor | None = None
 ) -> torch.Tensor:
     """The transfer the surface's own elements remove (module docstring).
 

@@ -59,7 +59,7 @@ class LocalConfig:
     widths: tuple[int, ...]  # unet: channels per level
     blocks: int  # unet: ResNet blocks per level
     window: int = 15  # side of the local-mean window, pixels (odd)
-    occlusion_grid: int = 16  # blocks per side of the disk-occlusion estimate (0: none)
+    occlusion_grid: int = disk_occlusion.DEFAULT_GRID  # blocks per side of the disks (0: none)
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:

@@ -124,13 +124,13 @@ def train_local(
     """
     torch.manual_seed(cfg["seed"])
     material = local_cfg.material
-    coeffs = None
+    coeffs = light_k = None
     if material == "glossy":
         if light is None:
             raise ValueError("training the glossy shadowing variant needs the SH light")
-        coeffs = unshadowed.glossy_polynomial(light[: local_cfg.n_bands**2])
-    k = local_cfg.n_bands**2
-    model = ShadowingTransfer(local_cfg, coeffs, None if coeffs is None else light[:k])
+        light_k = np.ascontiguousarray(light[: local_cfg.n_bands**2])
+        coeffs = unshadowed.glossy_polynomial(light_k)
+    model = ShadowingTransfer(local_cfg, coeffs, light_k)
     x_train = raw_inputs(train_split)
     model.fit_normalisation(x_train, train_split.targets(material))
     make = lambda x, s: TensorDataset(  # noqa: E731
@@ -149,7 +149,7 @@ def train_local(
         extra_state={
             "local_config": dataclasses.asdict(local_cfg),
             "glossy_coeffs": None if coeffs is None else torch.from_numpy(coeffs),
-            "light": None if coeffs is None else torch.tensor(np.ascontiguousarray(light[:k])),
+            "light": None if light_k is None else torch.from_numpy(light_k),
             "material": material,
             "parameters": count_parameters(model),
         },

@@ -189,11 +189,10 @@ def unshadowed_glossy_baseline(positions: np.ndarray, coeffs: np.ndarray) -> np.
 
 def _occluded(positions: np.ndarray, n_bands: int, light: np.ndarray | None) -> np.ndarray:
     """:func:`neurender.prt.disk_occlusion.occluded_transfer` ``(F, C, n, n)`` of frames
-    ``(F, n, n, 3)`` with their grid normals, at the shadowing variant's default grid."""
+    ``(F, n, n, 3)`` with their grid normals, at the default grid (the shadowing variant's)."""
     import torch  # here: the DAG reads this module's families without torch
 
-    from neurender.prt.disk_occlusion import occluded_transfer
-    from neurender.prt.local_model import LocalConfig
+    from neurender.prt.disk_occlusion import DEFAULT_GRID, occluded_transfer
 
     normals = np.stack([grid_normals(p) for p in positions])
     x = torch.from_numpy(
@@ -201,10 +200,9 @@ def _occluded(positions: np.ndarray, n_bands: int, light: np.ndarray | None) -> 
             np.moveaxis(np.concatenate([positions, normals], -1), -1, 1), np.float64
         )
     )
-    grid = LocalConfig.__dataclass_fields__["occlusion_grid"].default
     with torch.no_grad():
         lit = None if light is None else torch.from_numpy(np.ascontiguousarray(light, np.float64))
-        return occluded_transfer(x, n_bands, grid, lit).numpy()
+        return occluded_transfer(x, n_bands, DEFAULT_GRID, lit).numpy()
 
 
 def disk_occlusion_baseline(positions: np.ndarray, n_bands: int) -> np.ndarray:
