@@ -178,3 +178,24 @@ def test_the_separable_local_mean_is_the_2d_mean_with_borders_of_the_pixels_insi
     # A corner's mean is that of the pixels inside its window, by hand.
     corner = x[:, :, : half + 1, : half + 1].mean(dim=(2, 3))
     torch.testing.assert_close(local_mean(x, window)[:, :, 0, 0], corner)
+
+
+@pytest.mark.parametrize("material", ["diffuse", "glossy"])
+@pytest.mark.parametrize("architecture", ["dilated", "unet"])
+def test_a_core_that_outputs_the_encoded_term_reproduces_the_targets(architecture, material):
+    """What training fits, ``encode(targets - base_of(x))``, decodes in :meth:`forward` to
+    the targets; the dilated term has unit standard deviation per channel, the unet's lies
+    inside (0, 1) for its sigmoid."""
+    cfg = _local(material=material, architecture=architecture, occlusion_grid=4)
+    model = _trained_like(cfg)
+    x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
+    targets = np.random.default_rng(1).normal(size=(3, cfg.out_channels, 16, 16))
+    gap = (targets - model.base_of(x, batch=2)).astype(np.float32)
+    model.fit_normalisation(gap)
+    z = model.encode(torch.from_numpy(gap))
+    decoded = torch.from_numpy(model.base_of(x)) + z * model.t_scale + model.t_offset
+    np.testing.assert_allclose(decoded.numpy(), targets, atol=1e-5)
+    if architecture == "dilated":
+        np.testing.assert_allclose(z.std(dim=(0, 2, 3), unbiased=False), 1.0, rtol=1e-4)
+    else:
+        assert 0 < z.min() and z.max() < 1

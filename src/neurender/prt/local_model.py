@@ -215,15 +215,19 @@ class ShadowingTransfer(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.base(x) + self.shadowing(x) * self.t_scale + self.t_offset
 
-    def fit_normalisation(self, x: np.ndarray, targets: np.ndarray, margin: float = 0.1) -> None:
-        """Set ``t_offset``, ``t_scale`` from training inputs ``(F, 6, n, n)`` and targets
-        ``(F, C, n, n)``: the term ``targets - base`` divided per channel by its standard
+    def base_of(self, x: np.ndarray, batch: int = 16) -> np.ndarray:
+        """:meth:`base` of inputs ``(F, 6, n, n)``, ``(F, C, n, n)`` float32, in batches of
+        ``batch`` frames without gradients (computed once per training set)."""
+        inputs = torch.from_numpy(np.ascontiguousarray(x, np.float32))
+        with torch.no_grad():
+            parts = [self.base(inputs[i : i + batch]) for i in range(0, len(inputs), batch)]
+        return torch.cat(parts).numpy()
+
+    def fit_normalisation(self, gap: np.ndarray, margin: float = 0.1) -> None:
+        """Set ``t_offset``, ``t_scale`` from the training frames' shadowing term
+        ``gap = targets - base`` ``(F, C, n, n)``: divided per channel by its standard
         deviation (dilated), or mapped to [0, 1] with ``margin`` on both sides (unet,
         whose output is a sigmoid)."""
-        with torch.no_grad():
-            inputs = torch.from_numpy(np.ascontiguousarray(x, np.float32))
-            base = [self.base(inputs[i : i + 16]).numpy() for i in range(0, len(inputs), 16)]
-            gap = targets - np.concatenate(base)
         if self.cfg.architecture == "dilated":
             offset = np.zeros(gap.shape[1])
             scale = np.maximum(gap.std(axis=(0, 2, 3)), 1e-6)
@@ -234,9 +238,10 @@ class ShadowingTransfer(nn.Module):
         self.t_offset.copy_(torch.as_tensor(offset, dtype=torch.float32).reshape(1, -1, 1, 1))
         self.t_scale.copy_(torch.as_tensor(scale, dtype=torch.float32).reshape(1, -1, 1, 1))
 
-    def encode(self, x: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
-        """Targets ``(B, C, n, n)`` as the normalised term the core should output."""
-        return (targets - self.base(x) - self.t_offset) / self.t_scale
+    def encode(self, gap: torch.Tensor) -> torch.Tensor:
+        """The shadowing term ``targets - base`` ``(B, C, n, n)`` normalised as the core
+        outputs it (the inverse of ``* t_scale + t_offset`` in :meth:`forward`)."""
+        return (gap - self.t_offset) / self.t_scale
 
 
 def load_local(checkpoint: str | Path) -> ShadowingTransfer:

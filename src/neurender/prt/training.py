@@ -86,17 +86,18 @@ def train_deepprt(
 
 
 def _shadowing_loss(model, batch) -> tuple[torch.Tensor, dict[str, float]]:
-    """L1 of the core's normalised shadowing term (the unshadowed part is exact)."""
-    x, y = batch
-    return torch.nn.functional.l1_loss(model.shadowing(x), model.encode(x, y)), {}
+    """L1 of the core's normalised shadowing term (the base estimate is not learnt); the
+    batch is raw inputs and that term, encoded once (:func:`train_local`)."""
+    x, z = batch
+    return torch.nn.functional.l1_loss(model.shadowing(x), z), {}
 
 
 def _shadowing_previews(model, batch) -> tuple[torch.Tensor, torch.Tensor]:
     """The first three channels of the normalised shadowing term, predicted and true,
     shown as ``0.5 + z / 4`` (the dilated core's term has unit standard deviation per
     channel, so +-2 standard deviations span [0, 1]); ``val/loss`` is its L1."""
-    x, y = batch
-    return 0.5 + model.shadowing(x)[:, :3] / 4, 0.5 + model.encode(x, y)[:, :3] / 4
+    x, z = batch
+    return 0.5 + model.shadowing(x)[:, :3] / 4, 0.5 + z[:, :3] / 4
 
 
 def train_local(
@@ -131,17 +132,23 @@ def train_local(
         light_k = np.ascontiguousarray(light[: local_cfg.n_bands**2])
         coeffs = unshadowed.glossy_polynomial(light_k)
     model = ShadowingTransfer(local_cfg, coeffs, light_k)
-    x_train = raw_inputs(train_split)
-    model.fit_normalisation(x_train, train_split.targets(material))
-    make = lambda x, s: TensorDataset(  # noqa: E731
-        torch.from_numpy(x), torch.from_numpy(np.ascontiguousarray(s.targets(material)))
+    inputs = {"train": raw_inputs(train_split), "val": raw_inputs(val_split)}
+    # The base (unshadowed minus disks) is fixed, so each frame's shadowing term is
+    # computed once here rather than at every step.
+    gaps = {
+        name: split.targets(material) - model.base_of(inputs[name])
+        for name, split in (("train", train_split), ("val", val_split))
+    }
+    model.fit_normalisation(gaps["train"])
+    make = lambda name: TensorDataset(  # noqa: E731
+        torch.from_numpy(inputs[name]), model.encode(torch.from_numpy(gaps[name]))
     )
     config = train.TrainConfig.from_stage(cfg, threads)
     start = time.perf_counter()
     train.fit(
         model,
-        make(x_train, train_split),
-        make(raw_inputs(val_split), val_split),
+        make("train"),
+        make("val"),
         _shadowing_loss,
         config,
         checkpoint,
