@@ -176,9 +176,24 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     )
 
 
-#: Issue 25's study (``benchmarks/ndr_diffuse_study.py``) and the deployment and coarse
-#: shading timings (``benchmarks/ndr_graph.py``, ``benchmarks/coarse_shading.py``).
+#: Issue 25's studies (``benchmarks/ndr_diffuse_study.py``,
+#: ``benchmarks/ndr_coarse_shading_runs.py``) and the deployment and coarse shading timings
+#: (``benchmarks/ndr_graph.py``, ``benchmarks/coarse_shading.py``).
 STUDIES = (
+    Study(
+        csv="benchmarks/results/ndr_coarse_shading_runs.csv",
+        title="Coarse shading the networks train on: importance-sampled against prefiltered",
+        description=(
+            "DSSIM of the tone-mapped I_R on the test samples of two NDR stages on the "
+            "default config at one commit that differ only in ndr.coarse_shading (the "
+            "importance run trained ndr and ndr_direct only); every network trained for 8 "
+            "epochs, the best validation epoch kept. Rows shading_input and noise floor "
+            "are untrained."
+        ),
+        query="metric == 'dssim_I_R'",
+        index=("dataset", "model"),
+        columns=("coarse_shading",),
+    ),
     Study(
         csv="benchmarks/results/ndr_diffuse_study.csv",
         title="Diffuse-data study: NDR against Real Shading",

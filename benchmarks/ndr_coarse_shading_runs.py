@@ -1,0 +1,89 @@
+"""Study (issue 25): NDR trained on each coarse-shading estimator, side by side.
+
+Two runs of the NDR stage on the default config that differ only in
+``ndr.coarse_shading`` (``importance``, the paper's importance-sampled estimator, and
+``prefiltered``, the real-time lookups of :mod:`neurender.ndr.prefiltered`) give two
+``results/ndr/metrics.csv``; this merges their quality rows (DSSIM and L2 of the tone-mapped
+``I_R``, ``I_D``, ``I_S`` per dataset and model, every network at the config's epochs) into
+one tidy CSV with a ``coarse_shading`` column, with NDR's frame times and speed-ups from
+each run's ``ndr/equal_quality.csv`` (split ``equal quality``), and a sidecar ``.json`` with
+each run's folder, command and commit. The stages ran side by side, so their timings are
+not fair; the equal-quality jobs were rerun one after the other on the idle machine
+(``--forcerun ndr_equal_quality``) before merging.
+
+Usage, each run from its own clone at the same commit (``--configfile`` overlays that set
+the estimator and the variants)::
+
+    snakemake results/ndr/targets.csv --cores 2 --configfile config/config.yaml imp.yaml
+    python benchmarks/ndr_coarse_shading_runs.py \\
+        importance=/clone-a/results prefiltered=/clone-b/results \\
+        --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commit 4967c0e
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from neurender import io
+
+OUT = Path("benchmarks/results/ndr_coarse_shading_runs.csv")
+QUALITY = ("dssim_I_R", "dssim_I_D", "dssim_I_S", "l2_I_R", "l2_I_D", "l2_I_S", "epochs")
+TIMING = (
+    "coarse_shading_ms",
+    "network_ms",
+    "ms_per_frame",
+    "equal_quality_mitsuba_ms",
+    "speedup_vs_training_spp",
+    "equal_quality_speedup",
+)
+
+
+def merged(runs: dict[str, Path]) -> pd.DataFrame:
+    """The quality rows of each run's ``ndr/metrics.csv`` and NDR's timing rows of its
+    ``ndr/equal_quality.csv`` (``runs``: estimator -> results folder) with the estimator
+    as column ``coarse_shading``."""
+    frames = []
+    for shading, results in runs.items():
+        path = results / "ndr" / "metrics.csv"
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: expected the NDR evaluation of the {shading} run")
+        table = pd.read_csv(path)
+        frames.append(table[table.metric.isin(QUALITY)].assign(coarse_shading=shading))
+        timing = pd.read_csv(results / "ndr" / "equal_quality.csv")
+        timing = timing[(timing.model == "ndr") & timing.metric.isin(TIMING)]
+        frames.append(timing.assign(coarse_shading=shading))
+    columns = ["coarse_shading", "dataset", "model", "split", "metric", "value"]
+    return pd.concat(frames, ignore_index=True)[columns]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", nargs="+", help="estimator=results folder")
+    parser.add_argument("--commands", nargs="+", required=True, help="each run's command")
+    parser.add_argument("--commit", required=True, help="the commit both runs were made at")
+    parser.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args()
+    runs = dict(run.split("=", 1) for run in args.runs)
+    if len(args.commands) != len(runs):
+        parser.error(f"{len(runs)} runs but {len(args.commands)} --commands")
+    table = merged({shading: Path(folder) for shading, folder in runs.items()})
+    io.write_csv(args.out, table)
+    sidecar = {
+        "note": "two NDR stages on the default config at one commit, one estimator each",
+        "runs": [
+            {"coarse_shading": s, "results": f, "command": c, "commit": args.commit, "dirty": False}
+            for (s, f), c in zip(runs.items(), args.commands, strict=True)
+        ],
+        "merged_by": "python benchmarks/ndr_coarse_shading_runs.py "
+        + " ".join(f"{s}={f}" for s, f in runs.items()),
+    }
+    with io.atomic_path(args.out.with_suffix(".json")) as tmp_path:
+        tmp_path.write_text(json.dumps(sidecar, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
