@@ -135,12 +135,22 @@ EOF
 
 stop() {
   export SLURM_CONF=$STATE/slurm.conf
+  local pids=() pid
   for pidfile in slurmd slurmctld slurmdbd mysql; do
     if [ -f "$STATE/run/$pidfile.pid" ]; then
-      kill "$(cat "$STATE/run/$pidfile.pid")" 2>/dev/null || true
+      pid=$(cat "$STATE/run/$pidfile.pid")
+      kill "$pid" 2>/dev/null && pids+=("$pid")
     fi
   done
-  sleep 1
+  # slurmctld writes its state files as it shuts down: wait for every daemon to exit
+  # (30 s, then SIGKILL) before the folder is removed, or rm races those writes.
+  for _ in $(seq 30); do
+    alive=0
+    for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && alive=1; done
+    [ "$alive" -eq 0 ] && break
+    sleep 1
+  done
+  for pid in "${pids[@]}"; do kill -9 "$pid" 2>/dev/null || true; done
   pkill -x munged 2>/dev/null || true
   if [ -L /etc/slurm/slurm.conf ]; then
     rm -f /etc/slurm/slurm.conf
