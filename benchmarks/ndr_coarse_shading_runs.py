@@ -17,7 +17,7 @@ the estimator and the variants)::
     snakemake results/ndr/targets.csv --cores 2 --configfile config/config.yaml imp.yaml
     python benchmarks/ndr_coarse_shading_runs.py \\
         importance=/clone-a/results prefiltered=/clone-b/results \\
-        --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commit 4967c0e
+        --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commit <commit>
 """
 
 from __future__ import annotations
