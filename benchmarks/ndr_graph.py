@@ -69,10 +69,10 @@ def main() -> None:
     shipped = ShippedNDR(model, DISTANCE, FOV, WIDTH)
     g = buffers(args.seed)
     env = environments.sunlit_environment(np.random.default_rng(args.seed), ENV_HEIGHT)
-    coefficients, maps = pf.lighting(env, environments.resize_latlong(env, COARSE_HEIGHT))
-    sh, maps = coefficients.reshape(1, -1).float(), maps[None].float()
+    coefficients, maps, lights = pf.lighting(env, environments.resize_latlong(env, COARSE_HEIGHT))
+    sh, maps, lights = coefficients.reshape(1, -1).float(), maps[None].float(), lights[None].float()
     gbuffers = torch.cat([g[k] for k in gbuffer_groups(model)], 1)
-    inputs = (gbuffers, sh, maps)
+    inputs = (gbuffers, sh, maps, lights)
     with torch.inference_mode():
         batch = shipped.batch(*inputs)
     network_inputs = (torch.cat([batch[k] for k in graph_groups(model)], 1), batch["light"])

@@ -40,14 +40,14 @@ def test_white_furnace_checks_pass(mitsuba):
 def test_the_sun_check_shows_plain_brdf_sampling_speckle(mitsuba):
     """Under a sun holding most of the map's power in one coarse texel, the estimator with
     bright texels stays near Mitsuba's unoccluded shading; the paper's plain BRDF sampling
-    (stated in the check) is off by several times more; the prefiltered shading's SH
-    irradiance (stated too) is within the same tolerance."""
+    (stated in the check) is off by several times more; the prefiltered shading (SH and
+    the sun as a light, stated too) is within the same tolerance."""
     mi, _ = mitsuba
     check = furnace.sun_check(mi, 32, 64, 64, 16, 0)
     stated = check.check.split("plain BRDF sampling: ")[1]
     plain = float(stated.split(",")[0])
     assert check.met and plain > 4 * check.measured
-    assert float(stated.split("5-band SH: ")[1].split(")")[0]) < furnace.SUN_TOLERANCE
+    assert float(stated.split("SH and lights: ")[1].split(")")[0]) < furnace.SUN_TOLERANCE
 
 
 def test_g_buffers_of_a_sphere_match_the_camera_analytically():

@@ -6,6 +6,7 @@ import torch
 
 from neurender import lights
 from neurender.camera import pixel_rays
+from neurender.ndr import environments
 from neurender.ndr import prefiltered as pf
 from neurender.ndr.buffers import light_features
 from neurender.ndr.model import NDRModel
@@ -18,8 +19,8 @@ WIDTH, DISTANCE, FOV = 16, 3.9, 30.0
 
 
 def _inputs(batch: int, seed: int):
-    """Random G-buffers (unit normals facing the camera, a mask), the SH and prefiltered
-    maps of built-in probes."""
+    """Random G-buffers (unit normals facing the camera, a mask), the lighting of a
+    real-world-like map (a sun: lights) and built-in probes."""
     g = torch.Generator().manual_seed(seed)
     n = torch.randn(batch, 3, WIDTH, WIDTH, generator=g)
     n[:, 2] = n[:, 2].abs() + 0.3
@@ -28,13 +29,15 @@ def _inputs(batch: int, seed: int):
     d = torch.rand(batch, 1, WIDTH, WIDTH, generator=g)
     a_d, a_s = (torch.rand(batch, 3, WIDTH, WIDTH, generator=g) for _ in range(2))
     mask = (torch.rand(batch, 1, WIDTH, WIDTH, generator=g) > 0.3).float()
-    names = ["sky", "studio", "sunset"]
-    envs = [lights.procedural_probe(names[i % 3], 32) for i in range(batch)]
-    lighting = [pf.lighting(e, e[::2, ::2]) for e in envs]
-    sh = torch.stack([c.reshape(-1) for c, _ in lighting]).float()
-    maps = torch.stack([m for _, m in lighting]).float()
+    sunlit = environments.sunlit_environment(np.random.default_rng(seed), 32)
+    envs = [sunlit, lights.procedural_probe("studio", 32), lights.procedural_probe("sky", 32)]
+    lighting = [pf.lighting(e, environments.resize_latlong(e, 16)) for e in envs]
+    lighting = [lighting[i % 3] for i in range(batch)]
+    sh = torch.stack([c.reshape(-1) for c, _, _ in lighting]).float()
+    maps = torch.stack([m for _, m, _ in lighting]).float()
+    bright = torch.stack([k for _, _, k in lighting]).float()
     buffers = {"N": n, "R": r, "D": d, "A_D": a_d, "A_S": a_s, "mask": mask}
-    return buffers, sh, maps
+    return buffers, sh, maps, bright
 
 
 @pytest.fixture(scope="module")
@@ -51,11 +54,12 @@ def _stack(graph, buffers):
 def test_the_graph_is_the_shading_then_the_network(graph):
     """Per pixel, the graph's shading is :func:`prefiltered_shading` with the camera's view
     directions (0 off the mask), and ``I_R`` is the model's on that batch."""
-    buffers, sh, maps = _inputs(2, 1)
+    buffers, sh, maps, bright = _inputs(2, 1)
+    assert bright[0, :, 3:6].sum() > 0  # the sunlit map has lights
     x = _stack(graph, buffers)
     with torch.inference_mode():
-        got = graph.batch(x, sh, maps)
-        i_r = graph(x, sh, maps)
+        got = graph.batch(x, sh, maps, bright)
+        i_r = graph(x, sh, maps, bright)
         expected_i_r = graph.model({**buffers, **got})["I_R"]
     np.testing.assert_allclose(i_r.numpy(), expected_i_r.numpy(), rtol=1e-6)
     np.testing.assert_allclose(got["light"].numpy(), light_features(sh.numpy()).numpy())
@@ -64,7 +68,7 @@ def test_the_graph_is_the_shading_then_the_network(graph):
         normals = buffers["N"][b].flatten(1).T.double()
         alpha = buffers["R"][b].flatten().double() ** 2
         s_d, s_s = pf.prefiltered_shading(
-            normals, view, alpha, sh[b].reshape(25, 3).double(), maps[b].double()
+            normals, view, alpha, sh[b].reshape(25, 3).double(), maps[b].double(), bright[b]
         )
         m = buffers["mask"][b].flatten()[:, None].double()
         for name, ref in (("S_D", s_d), ("S_S", s_s)):
@@ -75,13 +79,13 @@ def test_the_graph_is_the_shading_then_the_network(graph):
 def test_onnx_file_renders_what_pytorch_renders(graph, tmp_path):
     """Exported on a batch of 2, the file renders a batch of 3 unseen inputs as PyTorch
     does, and so does the shading part alone."""
-    buffers, sh, maps = _inputs(2, 2)
-    example = (_stack(graph, buffers), sh, maps)
+    buffers, sh, maps, bright = _inputs(2, 2)
+    example = (_stack(graph, buffers), sh, maps, bright)
     export_onnx(graph, example, tmp_path / "ndr.onnx", atol=1e-3, rtol=1e-4, input_names=INPUTS)
     part = ShadingPart(graph.shading)
     export_onnx(part, example, tmp_path / "shading.onnx", atol=1e-3, rtol=1e-4, input_names=INPUTS)
-    buffers, sh, maps = _inputs(3, 3)
-    fresh = (_stack(graph, buffers), sh, maps)
+    buffers, sh, maps, bright = _inputs(3, 3)
+    fresh = (_stack(graph, buffers), sh, maps, bright)
     for module, name in ((graph, "ndr"), (part, "shading")):
         with torch.inference_mode():
             expected = module(*fresh).numpy()

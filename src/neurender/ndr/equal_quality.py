@@ -152,24 +152,30 @@ def score_sweep(
 @torch.no_grad()
 def shipped_inputs(
     cfg: dict, model: NDRModel, scene: Scene, sample: dict[str, torch.Tensor]
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
     """The shipped graph's inputs (:mod:`neurender.ndr.shipped`) of one test ``sample``
     (a dataset item, ``(C, H, W)`` per group; read without mask erosion, the graph gives
     the network's output on the stored sample exactly as a renderer's raw mask would) under
-    its scene's map: the G-buffers ``(1, C, H, W)``, the map's 5-band SH ``(1, 75)`` and its
-    prefiltered copies ``(1, L, h, 2h, 3)``, made as the data stage makes them for
-    ``prefiltered``."""
+    its scene's map: the G-buffers ``(1, C, H, W)``, the map's 5-band SH ``(1, 75)``, its
+    prefiltered copies ``(1, L, h, 2h, 3)`` and lights ``(1, K, 7)``, made as the data
+    stage makes them for ``prefiltered``."""
     gbuffers = torch.cat([sample[g][None] for g in gbuffer_groups(model)], 1)
     small = environments.resize_latlong(scene.environment, cfg["coarse_height"])
-    coefficients, maps = prefiltered.lighting(scene.environment, small)
-    return gbuffers.float(), coefficients.reshape(1, -1).float(), maps[None].float()
+    coefficients, maps, lights = prefiltered.lighting(scene.environment, small)
+    return (
+        gbuffers.float(),
+        coefficients.reshape(1, -1).float(),
+        maps[None].float(),
+        lights[None].float(),
+    )
 
 
 def export_shipped(
     cfg: dict, model: NDRModel, inputs: tuple[torch.Tensor, ...], path: str
 ) -> float:
     """Write ``model`` with the prefiltered coarse shading as one ONNX graph
-    (:class:`neurender.ndr.shipped.ShippedNDR`: G-buffers, SH and maps in, ``I_R`` out),
+    (:class:`neurender.ndr.shipped.ShippedNDR`: G-buffers, SH, maps and lights in, ``I_R``
+    out),
     checked against PyTorch on ``inputs`` (a batch of two copies); the largest
     difference."""
     cpu = copy.deepcopy(model).cpu().eval()  # the model may stay on the GPU for its timing

@@ -106,6 +106,7 @@ def sun_check(mi, width: int, spp: int, samples: int, coarse_height: int, seed: 
     fast_d = prefiltered.diffuse_shading(
         torch.from_numpy(g["normal"][inside]).double(),
         torch.from_numpy(sh.project_latlong(env, environments.SH_BANDS)),
+        prefiltered.bright_lights(env, small)[0],
     )
     errors["prefiltered"] = float(np.abs(fast_d.numpy() - i_d).mean() / i_d.mean())
     share = environments.sun_share(env, coarse_height)
@@ -113,7 +114,7 @@ def sun_check(mi, width: int, spp: int, samples: int, coarse_height: int, seed: 
         "coarse S_D",
         f"mean |S_D - I_D| / mean I_D under a sun map ({share:.0%} of its power in one coarse "
         f"texel; the paper's plain BRDF sampling: {errors['plain']:.3f}, the prefiltered "
-        f"shading's 5-band SH: {errors['prefiltered']:.3f})",
+        f"shading's SH and lights: {errors['prefiltered']:.3f})",
         errors["bright texels"],
         0.0,
         SUN_TOLERANCE,

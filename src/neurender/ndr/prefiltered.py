@@ -9,7 +9,17 @@ and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.
   :func:`neurender.ndr.environments.sh_features`): the irradiance is the SH convolved with
   the clamped cosine (Ramamoorthi and Hanrahan 2001), a dot product per pixel, clamped
   at 0 (the truncated expansion rings below a small bright emitter).
-* ``S_S`` by the split sum (Karis 2013): ``S_S ~ L_pre(r, roughness) E(n.v, roughness)``
+* Bright texels as lights (our change): a small sun holds most of a real map's power in
+  one texel of the coarse map, which the prefiltered copies smear over 10-20 degrees and
+  the SH ring around (``S_S`` 20-30 % off under real-world-like maps, measured in
+  ``benchmarks/results/coarse_shading_accuracy.csv``). The texels that the importance
+  estimator samples explicitly (:func:`neurender.ndr.shading.bright_texels`) become small
+  disk lights instead (:func:`bright_lights`): direction and angular radius from the
+  full map's power inside the texel, shaded analytically (``S_D``: ``max(n.l, 0) / pi``;
+  ``S_S``: GGX with the lobe widened by the disk, ``alpha'^2 = alpha^2 + radius^2 / 8``,
+  the disk's slope variance added to the lobe's, as Karis 2013's sphere lights widen
+  theirs), and are removed from what the SH and the prefiltered copies shade.
+* ``S_S`` of the rest by the split sum (Karis 2013): ``S_S ~ L_pre(r, roughness) E(n.v, roughness)``
   with ``r`` the mirror direction leant towards the normal as the surface roughens
   (Lagarde and de Rousiers 2014). ``L_pre`` is the map convolved with the GGX lobe under
   Karis' assumption ``n = v = r`` (weight ``D(h) max(r.l, 0)``) at :data:`LEVELS`
@@ -37,7 +47,7 @@ import torch
 
 from neurender import sh
 from neurender.ndr.environments import SH_BANDS
-from neurender.ndr.shading import ggx_d, smith_g1
+from neurender.ndr.shading import MAX_BRIGHT, bright_texels, ggx_d, smith_g1
 
 #: Prefiltered maps per lighting, at perceptual roughness ``k / (LEVELS - 1)``.
 LEVELS = 6
@@ -50,6 +60,12 @@ SUPERSAMPLE = 4
 ROW_CHUNK = 256
 #: ``n.v`` of the table's first column (the albedo of a grazing view is 0 for rough GGX).
 MIN_COS = 1e-3
+#: Light slots of :func:`bright_lights` (unused slots carry no power): as many texels as
+#: the importance-sampled estimator samples explicitly.
+LIGHTS = MAX_BRIGHT
+#: A light's row: unit direction (3), power per RGB channel (radiance x solid angle, 3),
+#: angular radius in radians (1).
+LIGHT_COLUMNS = 7
 
 
 def _irradiance_scale(bands: int) -> torch.Tensor:
@@ -62,14 +78,70 @@ def _irradiance_scale(bands: int) -> torch.Tensor:
     return torch.tensor([s for l, s in enumerate(per_band) for _ in range(2 * l + 1)])  # noqa: E741
 
 
-def diffuse_shading(normals: torch.Tensor, coefficients: torch.Tensor) -> torch.Tensor:
+def bright_lights(
+    environment: np.ndarray, coarse: np.ndarray, slots: int = LIGHTS
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The bright texels of ``coarse`` ``(h, 2h, 3)`` (the downsampled ``environment``
+    ``(H, 2H, 3)``) as disk lights ``(slots, LIGHT_COLUMNS)`` float64, and ``coarse``
+    without them ``(h, 2h, 3)`` float64 (their texels 0).
+
+    The texels are those :func:`neurender.ndr.shading.bright_texels` samples explicitly.
+    Each light gathers the full map's texels whose centres fall in its coarse texel: power
+    their summed radiance x solid angle; direction their power-weighted mean direction,
+    and radius ``sqrt(4 (1 - |mean|))`` (a disk of small radius ``r`` has mean resultant
+    length ``1 - r^2 / 4``), each texel counted as a disk of its own solid angle, so a sun
+    smaller than a coarse texel keeps its place and size. Unused slots: direction +y, no
+    power, radius 0."""
+    env = torch.from_numpy(np.asarray(environment, np.float64))
+    small = torch.from_numpy(np.asarray(coarse, np.float64))
+    h, w = small.shape[:2]
+    lights = torch.zeros(slots, LIGHT_COLUMNS, dtype=torch.float64)
+    lights[:, 1] = 1.0
+    chosen = bright_texels(small, limit=slots)
+    if chosen is None:
+        return lights, small
+    big_h, big_w = env.shape[:2]
+    dirs, solid = (torch.from_numpy(a) for a in sh.latlong_directions(big_h, big_w))
+    dirs, solid = dirs.reshape(-1, 3), solid.reshape(-1)
+    power = env.reshape(-1, 3) * solid[:, None]
+    # The coarse texel holding each full-map texel centre, and each texel's own extent.
+    rows = ((2 * torch.arange(big_h) + 1) * h) // (2 * big_h)
+    cols = ((2 * torch.arange(big_w) + 1) * w) // (2 * big_w)
+    owner = (rows[:, None] * w + cols[None, :]).reshape(-1)
+    resultant = 1 - solid / (4 * math.pi)
+    weight = power.mean(-1)
+    texels = h * w
+    summed_power = torch.zeros(texels, 3, dtype=torch.float64).index_add_(0, owner, power)
+    summed_dir = torch.zeros(texels, 3, dtype=torch.float64).index_add_(
+        0, owner, dirs * (weight * resultant)[:, None]
+    )
+    summed_weight = torch.zeros(texels, dtype=torch.float64).index_add_(0, owner, weight)
+    k = chosen.rows * w + chosen.cols
+    mean = summed_dir[k] / summed_weight[k, None]
+    length = mean.norm(dim=-1)
+    count = len(k)
+    lights[:count, 0:3] = mean / length[:, None]
+    lights[:count, 3:6] = summed_power[k]
+    lights[:count, 6] = torch.sqrt((4 * (1 - length)).clamp(min=0))
+    rest = small.clone().reshape(-1, 3)
+    rest[k] = 0.0
+    return lights, rest.reshape(h, w, 3)
+
+
+def diffuse_shading(
+    normals: torch.Tensor, coefficients: torch.Tensor, lights: torch.Tensor
+) -> torch.Tensor:
     """``S_D`` ``(..., P, 3)`` at unit ``normals`` ``(..., P, 3)`` from the map's SH
-    ``coefficients`` ``(..., 25, 3)`` (:func:`neurender.sh.project_latlong`, 5 bands),
-    clamped at 0."""
+    ``coefficients`` ``(..., 25, 3)`` (:func:`neurender.sh.project_latlong`, 5 bands) and
+    its lights ``(..., K, LIGHT_COLUMNS)`` (:func:`bright_lights`): each light exactly, the
+    rest of the map by the SH less the lights' own, clamped at 0."""
     bands = math.isqrt(coefficients.shape[-2])
     scale = _irradiance_scale(bands).to(coefficients.dtype)
-    basis = sh.eval_sh(normals, bands)  # (..., P, K)
-    return (basis @ (coefficients * scale[:, None])).clamp(min=0)
+    dirs, power = lights[..., 0:3], lights[..., 3:6]
+    rest = coefficients - sh.eval_sh(dirs, bands).transpose(-1, -2) @ power
+    basis = sh.eval_sh(normals, bands)  # (..., P, bands^2)
+    direct = (normals @ dirs.transpose(-1, -2)).clamp(min=0.0) @ power / math.pi
+    return (basis @ (rest * scale[:, None]) + direct).clamp(min=0.0)
 
 
 def level_roughness(levels: int = LEVELS) -> np.ndarray:
@@ -193,17 +265,39 @@ def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor)
     return out
 
 
+def light_specular(
+    normals: torch.Tensor, view_dirs: torch.Tensor, alpha: torch.Tensor, lights: torch.Tensor
+) -> torch.Tensor:
+    """``S_S`` ``(B, P, 3)`` of the disk lights ``(B, K, LIGHT_COLUMNS)``
+    (:func:`bright_lights`) alone: per light, its power x ``D(h) G(v, l) / (4 n.v)`` at its
+    direction, ``D`` widened by its radius (module docstring); unit ``normals``,
+    ``view_dirs`` ``(B, P, 3)``, GGX width ``alpha`` ``(B, P)``."""
+    dirs, power, radius = lights[..., 0:3], lights[..., 3:6], lights[..., 6]
+    n_dot_l = normals @ dirs.transpose(1, 2)  # (B, P, K)
+    n_dot_v = (normals * view_dirs).sum(-1, keepdim=True)
+    half = dirs[:, None] + view_dirs[:, :, None]  # (B, P, K, 3)
+    half = half / half.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+    cos_h = (normals[:, :, None] * half).sum(-1)
+    a = alpha[..., None]
+    widened = torch.sqrt(a**2 + radius[:, None] ** 2 / 8)
+    brdf = ggx_d(cos_h, widened) * smith_g1(n_dot_l, a) * smith_g1(n_dot_v, a)
+    brdf = torch.where((n_dot_l > 0) & (n_dot_v > 0), brdf / (4 * n_dot_v.clamp(min=1e-7)), 0.0)
+    return brdf @ power
+
+
 def specular_shading(
     normals: torch.Tensor,
     view_dirs: torch.Tensor,
     alpha: torch.Tensor,
     maps: torch.Tensor,
     table: torch.Tensor,
+    lights: torch.Tensor,
 ) -> torch.Tensor:
-    """``S_S`` ``(B, P, 3)`` by the split sum (module docstring): unit ``normals`` and
-    ``view_dirs`` ``(B, P, 3)`` (towards the eye), GGX width ``alpha`` ``(B, P)``, the
-    prefiltered maps ``(B, L, h, 2h, 3)`` (:func:`prefilter`) and :func:`albedo_table`;
-    0 where ``n.v <= 0``."""
+    """``S_S`` ``(B, P, 3)``: the lights (:func:`light_specular`) and the rest of the map by
+    the split sum (module docstring): unit ``normals`` and ``view_dirs`` ``(B, P, 3)``
+    (towards the eye), GGX width ``alpha`` ``(B, P)``, the prefiltered maps of the map
+    without its lights ``(B, L, h, 2h, 3)`` (:func:`prefilter`), :func:`albedo_table` and
+    the lights ``(B, K, LIGHT_COLUMNS)``; 0 where ``n.v <= 0``."""
     cos_v = (normals * view_dirs).sum(-1)
     mirror = 2 * cos_v[..., None] * normals - view_dirs
     # The lobe of a rough surface leans from the mirror direction towards the normal
@@ -216,7 +310,8 @@ def specular_shading(
     roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
     radiance = _map_lookup(maps, dominant, roughness)
     albedo = _table_lookup(table.to(normals.dtype), cos_v, roughness)
-    return torch.where(cos_v > 0, albedo, 0.0)[..., None] * radiance
+    rest = torch.where(cos_v > 0, albedo, 0.0)[..., None] * radiance
+    return rest + light_specular(normals, view_dirs, alpha, lights)
 
 
 def prefiltered_shading(
@@ -225,27 +320,40 @@ def prefiltered_shading(
     alpha: torch.Tensor,
     coefficients: torch.Tensor,
     maps: torch.Tensor,
+    lights: torch.Tensor,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """``S_D`` and ``S_S`` ``(P, 3)`` for ``P`` points under one lighting: the
-    counterpart of :func:`neurender.ndr.shading.coarse_shading`.
+    """``S_D`` and ``S_S`` ``(P, 3)`` for ``P`` points under one lighting
+    (:func:`lighting`): the counterpart of :func:`neurender.ndr.shading.coarse_shading`.
 
     Args:
         normals, view_dirs: ``(P, 3)`` unit vectors (view_dir points to the eye).
         alpha: ``(P,)`` GGX width.
         coefficients: ``(25, 3)`` the map's 5-band SH.
-        maps: ``(L, h, 2h, 3)`` its prefiltered maps (:func:`prefilter`).
+        maps: ``(L, h, 2h, 3)`` the prefiltered maps of its coarse copy without its lights.
+        lights: ``(K, LIGHT_COLUMNS)`` its bright texels as lights (:func:`bright_lights`).
     """
     dtype = normals.dtype
-    s_d = diffuse_shading(normals, coefficients.to(dtype))
+    lights = lights.to(dtype)
+    s_d = diffuse_shading(normals, coefficients.to(dtype), lights)
     s_s = specular_shading(
-        normals[None], view_dirs[None], alpha[None].to(dtype), maps[None].to(dtype), albedo_table()
+        normals[None],
+        view_dirs[None],
+        alpha[None].to(dtype),
+        maps[None].to(dtype),
+        albedo_table(),
+        lights[None],
     )[0]
     return s_d, s_s
 
 
-def lighting(environment: np.ndarray, coarse: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
-    """The fast shading's lighting of one map: the 5-band SH ``(25, 3)`` float64 of
-    ``environment`` ``(H, 2H, 3)`` (what the network's light input is made of) and the
-    prefiltered maps ``(L, h, 2h, 3)`` of its downsampled copy ``coarse`` ``(h, 2h, 3)``."""
+def lighting(
+    environment: np.ndarray, coarse: np.ndarray
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The fast shading's lighting of one map, float64: the 5-band SH ``(25, 3)`` of
+    ``environment`` ``(H, 2H, 3)`` (what the network's light input is made of), the
+    prefiltered maps ``(L, h, 2h, 3)`` of its downsampled copy ``coarse`` ``(h, 2h, 3)``
+    without its bright texels, and those texels as lights ``(LIGHTS, LIGHT_COLUMNS)``
+    (:func:`bright_lights`)."""
     coefficients = torch.from_numpy(sh.project_latlong(environment, SH_BANDS))
-    return coefficients, prefilter(torch.from_numpy(np.asarray(coarse, np.float64)))
+    lights, rest = bright_lights(environment, coarse)
+    return coefficients, prefilter(rest), lights

@@ -73,7 +73,7 @@ def lookup(environment: torch.Tensor, dirs: torch.Tensor) -> torch.Tensor:
 
 def smith_g1(cos_theta: torch.Tensor, alpha: torch.Tensor) -> torch.Tensor:
     """Smith masking of GGX for a direction at ``cos_theta`` to the normal."""
-    c2 = cos_theta.clamp(1e-7, 1) ** 2
+    c2 = cos_theta.clamp(1e-7, 1.0) ** 2  # float bounds: see neurender.ndr.prefiltered
     tan2 = (1 - c2) / c2
     return 2 / (1 + torch.sqrt(1 + alpha**2 * tan2))
 

@@ -9,8 +9,9 @@ Inputs:
 * ``sh`` ``(B, 75)`` the map's raw 5-band SH (coefficient-major, ``k * 3 + channel``; the
   lighting CSV's values), from which the graph computes both the diffuse shading and the
   network's light features (:func:`neurender.ndr.buffers.light_features`);
-* ``maps`` ``(B, L, h, 2h, 3)`` the map's GGX-prefiltered copies
-  (:func:`neurender.ndr.prefiltered.prefilter`), made once per map, not per frame.
+* ``maps`` ``(B, L, h, 2h, 3)`` the GGX-prefiltered copies of the map's coarse copy
+  without its bright texels, and ``lights`` ``(B, K, 7)`` those texels as disk lights
+  (:func:`neurender.ndr.prefiltered.lighting`), made once per map, not per frame.
 
 The view directions of the fixed camera (:mod:`neurender.ndr.render`) and the split-sum
 albedo table are constants of the graph. Output ``I_R`` ``(B, 3, H, W)`` linear HDR.
@@ -34,7 +35,7 @@ from neurender.ndr.render import camera
 from neurender.ndr.variants import SHADING_GROUPS
 
 #: The graph's input names (see the module docstring).
-INPUTS = ("gbuffers", "sh", "maps")
+INPUTS = ("gbuffers", "sh", "maps", "lights")
 
 
 def gbuffer_groups(model: NDRModel) -> tuple[str, ...]:
@@ -50,7 +51,7 @@ def light_features(coefficients: torch.Tensor) -> torch.Tensor:
 
 
 class CoarseShading(nn.Module):
-    """``(gbuffers, sh, maps) -> (S_D, S_S)`` each ``(B, 3, H, W)``: the prefiltered coarse
+    """``(gbuffers, sh, maps, lights) -> (S_D, S_S)`` each ``(B, 3, H, W)``: the prefiltered coarse
     shading of a fixed camera's image (``distance``, ``fov`` in degrees, ``width`` px)."""
 
     def __init__(self, groups: tuple[str, ...], distance: float, fov: float, width: int):
@@ -62,15 +63,15 @@ class CoarseShading(nn.Module):
         self.register_buffer("table", prefiltered.albedo_table().float())
 
     def forward(
-        self, gbuffers: torch.Tensor, sh: torch.Tensor, maps: torch.Tensor
+        self, gbuffers: torch.Tensor, sh: torch.Tensor, maps: torch.Tensor, lights: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
         g = dict(zip(self.groups, torch.split(gbuffers, self.counts, 1), strict=True))
         b, _, h, w = gbuffers.shape
         normals = g["N"].flatten(2).transpose(1, 2)  # (B, HW, 3)
         alpha = g["R"].flatten(1) ** 2
         view = self.view_dirs.expand(b, -1, -1)
-        s_d = prefiltered.diffuse_shading(normals, sh.reshape(b, SH_FEATURES // 3, 3))
-        s_s = prefiltered.specular_shading(normals, view, alpha, maps, self.table)
+        s_d = prefiltered.diffuse_shading(normals, sh.reshape(b, SH_FEATURES // 3, 3), lights)
+        s_s = prefiltered.specular_shading(normals, view, alpha, maps, self.table, lights)
         mask = g["mask"]
 
         def image(x: torch.Tensor) -> torch.Tensor:
@@ -86,12 +87,12 @@ class ShadingPart(nn.Module):
         super().__init__()
         self.shading = shading
 
-    def forward(self, gbuffers, sh, maps) -> torch.Tensor:
-        return torch.cat(self.shading(gbuffers, sh, maps), 1)
+    def forward(self, gbuffers, sh, maps, lights) -> torch.Tensor:
+        return torch.cat(self.shading(gbuffers, sh, maps, lights), 1)
 
 
 class ShippedNDR(nn.Module):
-    """``(gbuffers, sh, maps) -> I_R``: coarse shading and one trained variant (see the
+    """``(gbuffers, sh, maps, lights) -> I_R``: coarse shading and one trained variant (see the
     module docstring); the camera and width are the data's (``ndr.camera_distance``,
     ``ndr.fov``, ``ndr.width``)."""
 
@@ -100,12 +101,12 @@ class ShippedNDR(nn.Module):
         self.model = model.eval()
         self.shading = CoarseShading(gbuffer_groups(model), distance, fov, width)
 
-    def batch(self, gbuffers, sh, maps) -> dict[str, torch.Tensor]:
+    def batch(self, gbuffers, sh, maps, lights) -> dict[str, torch.Tensor]:
         """The model's batch dict: the G-buffers, the shading, the light features."""
-        s_d, s_s = self.shading(gbuffers, sh, maps)
+        s_d, s_s = self.shading(gbuffers, sh, maps, lights)
         split = torch.split(gbuffers, self.shading.counts, 1)
         batch = dict(zip(self.shading.groups, split, strict=True))
         return {**batch, "S_D": s_d, "S_S": s_s, "light": light_features(sh)}
 
-    def forward(self, gbuffers, sh, maps) -> torch.Tensor:
-        return self.model(self.batch(gbuffers, sh, maps))["I_R"]
+    def forward(self, gbuffers, sh, maps, lights) -> torch.Tensor:
+        return self.model(self.batch(gbuffers, sh, maps, lights))["I_R"]
