@@ -108,3 +108,20 @@ def test_the_export_check_scales_with_the_outputs_magnitude(tmp_path):
     # ... and within a relative 1e-4 of the largest output.
     error = export_onnx(model, x, tmp_path / "relative.onnx", atol=0.0, rtol=1e-4)
     assert 0 < error <= 1e-4 * peak
+
+
+class _IgnoresItsMiddleInput(nn.Module):
+    def forward(self, a: torch.Tensor, unused: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        return a * 2 + b
+
+
+def test_an_input_the_graph_ignores_stays_an_input_in_its_place(tmp_path):
+    """The exporter prunes inputs a graph does not read; the file still takes all three in
+    order (batch axis dynamic) and computes the module's output."""
+    examples = (torch.rand(2, 3), torch.rand(2, 5), torch.rand(2, 3))
+    path = tmp_path / "m.onnx"
+    export_onnx(_IgnoresItsMiddleInput(), examples, path, input_names=("a", "unused", "b"))
+    network = OnnxNetwork(path)
+    assert network.inputs == ["a", "unused", "b"]
+    x = [np.random.default_rng(0).random((4, n), dtype=np.float32) for n in (3, 5, 3)]
+    np.testing.assert_allclose(network(*x), x[0] * 2 + x[2], rtol=1e-6)
