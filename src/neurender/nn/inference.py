@@ -22,8 +22,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-import onnx
-import onnxruntime
 import torch
 from torch import nn
 from torch.nn.utils.fusion import fuse_conv_bn_eval
@@ -32,6 +30,10 @@ from neurender.io import atomic_path
 from neurender.timing import timed
 
 log = logging.getLogger(__name__)
+
+# ``onnx`` and ``onnxruntime`` are imported where a file is read, written or run: together
+# they take seconds to import (``onnx`` pulls in ``ml_dtypes``), and most jobs that import
+# this module, through the deployment tables, do neither.
 
 
 def fold_batch_norms(model: nn.Module) -> nn.Module:
@@ -147,6 +149,8 @@ def export_onnx(
 
 def onnx_metadata(path: str | Path) -> dict[str, str]:
     """The model-level metadata of an ONNX file (e.g. ``neurender.max_abs_diff_vs_pytorch``)."""
+    import onnx
+
     return {p.key: p.value for p in onnx.load(str(path), load_external_data=False).metadata_props}
 
 
@@ -154,6 +158,8 @@ def _restore_inputs(path: Path, names: tuple[str, ...], examples: tuple[torch.Te
     """Put back the inputs the exporter pruned because the graph ignores them (e.g. the
     light of an NDR variant without the SH branch), in their place, so that every file of
     a kind takes the same inputs."""
+    import onnx
+
     model = onnx.load(str(path))
     present = {i.name: i for i in model.graph.input}
     if all(name in present for name in names):
@@ -170,6 +176,8 @@ def _restore_inputs(path: Path, names: tuple[str, ...], examples: tuple[torch.Te
 
 def _finish(path: Path, metadata: dict[str, str]) -> None:
     """Add our model metadata to the file."""
+    import onnx
+
     model = onnx.load(str(path))
     for key, value in metadata.items():
         model.metadata_props.add(key=key, value=value)
@@ -186,6 +194,8 @@ class OnnxNetwork:
     def __init__(self, path: str | Path, threads: int = 1):
         if not Path(path).is_file():
             raise FileNotFoundError(f"ONNX network {path} not found")
+        import onnxruntime
+
         options = onnxruntime.SessionOptions()
         options.intra_op_num_threads = max(1, threads)
         options.inter_op_num_threads = 1
