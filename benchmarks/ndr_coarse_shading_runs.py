@@ -1,23 +1,24 @@
 """Study (issue 25): NDR trained on each coarse-shading estimator, side by side.
 
-Two runs of the NDR stage on the default config that differ only in
-``ndr.coarse_shading`` (``importance``, the paper's importance-sampled estimator, and
-``prefiltered``, the real-time lookups of :mod:`neurender.ndr.prefiltered`) give two
-``results/ndr/metrics.csv``; this merges their quality rows (DSSIM and L2 of the tone-mapped
+Runs of the NDR stage on the default config that differ only in the coarse shading
+(``ndr.coarse_shading``: ``importance``, the paper's importance-sampled estimator, and
+``prefiltered``, the real-time lookups of :mod:`neurender.ndr.prefiltered`, before and
+after its bright texels became lights) give one ``results/ndr/metrics.csv`` each; this
+merges their quality rows (DSSIM and L2 of the tone-mapped
 ``I_R``, ``I_D``, ``I_S`` per dataset and model, every network at the config's epochs) into
 one tidy CSV with a ``coarse_shading`` column, with NDR's frame times and speed-ups from
 each run's ``ndr/equal_quality.csv`` (split ``equal quality``), and a sidecar ``.json`` with
-each run's folder, command and commit. The stages ran side by side, so their timings are
-not fair; the equal-quality jobs were rerun one after the other on the idle machine
+each run's folder, command and commit. Stages that ran side by side do not give fair
+timings; each run's equal-quality job was rerun alone on the idle machine
 (``--forcerun ndr_equal_quality``) before merging.
 
-Usage, each run from its own clone at the same commit (``--configfile`` overlays that set
-the estimator and the variants)::
+Usage, each run from its own clone (``--configfile`` overlays that set the estimator and
+the variants)::
 
     snakemake results/ndr/targets.csv --cores 2 --configfile config/config.yaml imp.yaml
     python benchmarks/ndr_coarse_shading_runs.py \\
         importance=/clone-a/results prefiltered=/clone-b/results \\
-        --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commit <commit>
+        --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commits <a> <b>
 """
 
 from __future__ import annotations
@@ -64,19 +65,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs", nargs="+", help="estimator=results folder")
     parser.add_argument("--commands", nargs="+", required=True, help="each run's command")
-    parser.add_argument("--commit", required=True, help="the commit both runs were made at")
+    parser.add_argument("--commits", nargs="+", required=True, help="each run's commit")
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     runs = dict(run.split("=", 1) for run in args.runs)
-    if len(args.commands) != len(runs):
-        parser.error(f"{len(runs)} runs but {len(args.commands)} --commands")
+    for name, values in (("--commands", args.commands), ("--commits", args.commits)):
+        if len(values) != len(runs):
+            parser.error(f"{len(runs)} runs but {len(values)} {name}")
     table = merged({shading: Path(folder) for shading, folder in runs.items()})
     io.write_csv(args.out, table)
     sidecar = {
-        "note": "two NDR stages on the default config at one commit, one estimator each",
+        "note": "NDR stages on the default config, one coarse shading each",
         "runs": [
-            {"coarse_shading": s, "results": f, "command": c, "commit": args.commit, "dirty": False}
-            for (s, f), c in zip(runs.items(), args.commands, strict=True)
+            {"coarse_shading": s, "results": f, "command": c, "commit": k, "dirty": False}
+            for (s, f), c, k in zip(runs.items(), args.commands, args.commits, strict=True)
         ],
         "merged_by": "python benchmarks/ndr_coarse_shading_runs.py "
         + " ".join(f"{s}={f}" for s, f in runs.items()),
