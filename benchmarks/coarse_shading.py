@@ -14,7 +14,8 @@ once-per-map preparation of its lighting: SH projection, bright lights and prefi
 reference, the mean |estimate - reference| / mean reference over the object's pixels and
 the ratio of the means. References: the importance estimator at 1024 samples per lobe on
 the coarse map (what both estimators read) and on the full map (the light the renders
-see: a sun keeps its place and size); ``<out>.json``: the command, commit, hardware.
+see: a sun keeps its place and size); ``<out>.json`` and ``<out>_accuracy.json``: the
+command and commit.
 """
 
 from __future__ import annotations
@@ -160,7 +161,8 @@ def main() -> None:
                 )
                 print(accuracy[-1], flush=True)
     io.write_csv(Path(f"{out}_accuracy.csv"), pd.DataFrame(accuracy))
-    Path(f"{out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
+    for name in (f"{out}.json", f"{out}_accuracy.json"):
+        Path(name).write_text(json.dumps(sidecar, indent=2) + "\n")
 
 
 if __name__ == "__main__":
