@@ -5,13 +5,15 @@ The quantities are those of :mod:`neurender.ndr.shading` (its importance-sampled
 is the reference these are tested against): ``S_D = integral L(w) max(n.w, 0) / pi dw``
 and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.v) dl``.
 
-* ``S_D`` from the map's 5-band SH (the light the NDR stage already has,
-  :func:`neurender.ndr.environments.sh_features`): the irradiance is the SH convolved with
-  the clamped cosine (Ramamoorthi and Hanrahan 2001), a dot product per pixel, clamped
-  at 0 (the truncated expansion rings below a small bright emitter).
+* ``S_D`` of the map less its lights (below) from its 5-band SH (the light the NDR stage
+  already has, :func:`neurender.ndr.environments.sh_features`, less the lights' own SH):
+  the irradiance is the SH convolved with the clamped cosine (Ramamoorthi and Hanrahan
+  2001), a dot product per pixel, clamped at 0.
 * Bright texels as lights (our change): a small sun holds most of a real map's power in
   one texel of the coarse map, which the prefiltered copies smear over 10-20 degrees and
-  the SH ring around (``S_S`` 20-30 % off under real-world-like maps, measured in
+  the SH ring around (without lights ``S_S`` was 20-25 % off under the real-world-like
+  maps; with them 1-2 % off the shading of the full map, closer than the importance
+  estimator's 64 samples on every benchmark map:
   ``benchmarks/results/coarse_shading_accuracy.csv``). The texels that the importance
   estimator samples explicitly (:func:`neurender.ndr.shading.bright_texels`) become small
   disk lights instead (:func:`bright_lights`): direction and angular radius from the
