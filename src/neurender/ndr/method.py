@@ -184,11 +184,12 @@ STUDIES = (
         csv="benchmarks/results/ndr_coarse_shading_runs.csv",
         title="Coarse shading the networks train on: importance-sampled against prefiltered",
         description=(
-            "DSSIM of the tone-mapped I_R on the test samples of two NDR stages on the "
-            "default config at one commit that differ only in ndr.coarse_shading (the "
-            "importance run trained ndr and ndr_direct only); every network trained for 8 "
-            "epochs, the best validation epoch kept. Rows shading_input and noise floor "
-            "are untrained."
+            "DSSIM of the tone-mapped I_R on the test samples of three NDR stages on the "
+            "default config that differ only in the coarse shading: importance-sampled, "
+            "prefiltered with its SH and prefiltered maps only (both at 1d43cd2; the "
+            "importance run trained ndr and ndr_direct only), and prefiltered with the "
+            "bright texels as lights (583960f); every network trained for 8 epochs, the "
+            "best validation epoch kept. Rows shading_input and noise floor are untrained."
         ),
         query="metric == 'dssim_I_R'",
         index=("dataset", "model"),
@@ -218,6 +219,22 @@ STUDIES = (
         index=("part",),
         columns=("threads",),
         values="onnxruntime_ms",
+    ),
+    Study(
+        csv="benchmarks/results/coarse_shading_accuracy.csv",
+        title="Coarse shading: agreement with the exact shading",
+        description=(
+            "Mean |estimate - reference| / mean reference of S_D and S_S over one 64 x 64 "
+            "object's pixels under built-in, procedural and real-world-like maps, for the "
+            "importance-sampled estimator (64 samples per lobe) and the prefiltered one "
+            "(bright texels as lights), against the importance estimator at 1024 samples "
+            "on the 16-row coarse map both read and on the full 128-row map (where a "
+            "sun keeps its place and size)."
+        ),
+        index=("map", "shading"),
+        columns=("estimator", "reference"),
+        values="rel_diff",
+        digits=3,
     ),
     Study(
         csv="benchmarks/results/coarse_shading.csv",
