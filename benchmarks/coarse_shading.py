@@ -135,6 +135,7 @@ def main() -> None:
     accuracy = []
     for name, image in maps(args.seed).items():
         small = environments.resize_latlong(image, COARSE_HEIGHT)
+        sun_share = environments.sun_share(image, COARSE_HEIGHT)
         references = {
             "coarse map": importance(px, torch.from_numpy(small), REFERENCE_SAMPLES, seed=1),
             "full map": importance(px, torch.from_numpy(image), REFERENCE_SAMPLES, seed=1),
@@ -151,7 +152,7 @@ def main() -> None:
                 accuracy.append(
                     {
                         "map": name,
-                        "sun_share": environments.sun_share(image, COARSE_HEIGHT),
+                        "sun_share": sun_share,
                         "shading": lobe,
                         "estimator": estimator,
                         "reference": reference,

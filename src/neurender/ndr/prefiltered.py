@@ -119,9 +119,8 @@ def bright_lights(
     summed_dir = torch.zeros(texels, 3, dtype=torch.float64).index_add_(
         0, owner, dirs * (weight * resultant)[:, None]
     )
-    summed_weight = torch.zeros(texels, dtype=torch.float64).index_add_(0, owner, weight)
     k = chosen.rows * w + chosen.cols
-    mean = summed_dir[k] / summed_weight[k, None]
+    mean = summed_dir[k] / summed_power[k].mean(-1, keepdim=True)
     length = mean.norm(dim=-1)
     count = len(k)
     lights[:count, 0:3] = mean / length[:, None]
