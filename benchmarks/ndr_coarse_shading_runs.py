@@ -19,12 +19,16 @@ the variants)::
     python benchmarks/ndr_coarse_shading_runs.py \\
         importance=/clone-a/results prefiltered=/clone-b/results \\
         --commands "snakemake ... imp.yaml" "snakemake ... pref.yaml" --commits <a> <b>
+
+``--append`` adds runs to the committed CSV and sidecar, keeping the earlier runs (whose
+results folders may be gone) except any of the same name.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -67,21 +71,32 @@ def main() -> None:
     parser.add_argument("--commands", nargs="+", required=True, help="each run's command")
     parser.add_argument("--commits", nargs="+", required=True, help="each run's commit")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--append", action="store_true", help="keep the earlier runs")
     args = parser.parse_args()
     runs = dict(run.split("=", 1) for run in args.runs)
     for name, values in (("--commands", args.commands), ("--commits", args.commits)):
         if len(values) != len(runs):
             parser.error(f"{len(runs)} runs but {len(values)} {name}")
     table = merged({shading: Path(folder) for shading, folder in runs.items()})
+    new_runs = [
+        {"coarse_shading": s, "results": f, "command": c, "commit": k, "dirty": False}
+        for (s, f), c, k in zip(runs.items(), args.commands, args.commits, strict=True)
+    ]
+    merged_by = ["python benchmarks/ndr_coarse_shading_runs.py " + " ".join(sys.argv[1:])]
+    if args.append:
+        earlier = pd.read_csv(args.out)
+        table = pd.concat([earlier[~earlier.coarse_shading.isin(runs)], table], ignore_index=True)
+        old = json.loads(args.out.with_suffix(".json").read_text())
+        new_runs = [r for r in old["runs"] if r["coarse_shading"] not in runs] + new_runs
+        merged_by = [
+            *([old["merged_by"]] if isinstance(old["merged_by"], str) else old["merged_by"]),
+            *merged_by,
+        ]
     io.write_csv(args.out, table)
     sidecar = {
         "note": "NDR stages on the default config, one coarse shading each",
-        "runs": [
-            {"coarse_shading": s, "results": f, "command": c, "commit": k, "dirty": False}
-            for (s, f), c, k in zip(runs.items(), args.commands, args.commits, strict=True)
-        ],
-        "merged_by": "python benchmarks/ndr_coarse_shading_runs.py "
-        + " ".join(f"{s}={f}" for s, f in runs.items()),
+        "runs": new_runs,
+        "merged_by": merged_by,
     }
     with io.atomic_path(args.out.with_suffix(".json")) as tmp_path:
         tmp_path.write_text(json.dumps(sidecar, indent=2) + "\n")

@@ -65,7 +65,8 @@ MIN_COS = 1e-3
 #: Light slots of :func:`bright_lights` (unused slots carry no power): as many texels as
 #: the importance-sampled estimator samples explicitly. (8 would be as accurate on the
 #: benchmark maps, which have 1 to 9 bright texels, and the shipped graph's shading twice
-#: as fast; the committed NDR runs were trained with 16.)
+#: as fast; trained with 8 and a smaller U-Net, NDR was worse under the real-world-like
+#: maps and still below 30x: benchmarks/results/ndr_coarse_shading_runs.csv.)
 LIGHTS = MAX_BRIGHT
 #: A light's row: unit direction (3), power per RGB channel (radiance x solid angle, 3),
 #: angular radius in radians (1).
