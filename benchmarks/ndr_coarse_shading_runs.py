@@ -71,16 +71,23 @@ def main() -> None:
     parser.add_argument("--commands", nargs="+", required=True, help="each run's command")
     parser.add_argument("--commits", nargs="+", required=True, help="each run's commit")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--changes", nargs="+", help="each run's uncommitted change, '' if none")
     parser.add_argument("--append", action="store_true", help="keep the earlier runs")
     args = parser.parse_args()
     runs = dict(run.split("=", 1) for run in args.runs)
-    for name, values in (("--commands", args.commands), ("--commits", args.commits)):
+    changes = args.changes or [""] * len(runs)
+    for name, values in (
+        ("--commands", args.commands),
+        ("--commits", args.commits),
+        ("--changes", changes),
+    ):
         if len(values) != len(runs):
             parser.error(f"{len(runs)} runs but {len(values)} {name}")
     table = merged({shading: Path(folder) for shading, folder in runs.items()})
     new_runs = [
-        {"coarse_shading": s, "results": f, "command": c, "commit": k, "dirty": False}
-        for (s, f), c, k in zip(runs.items(), args.commands, args.commits, strict=True)
+        {"coarse_shading": s, "results": f, "command": c, "commit": k, "dirty": bool(d)}
+        | ({"change": d} if d else {})
+        for (s, f), c, k, d in zip(runs.items(), args.commands, args.commits, changes, strict=True)
     ]
     merged_by = ["python benchmarks/ndr_coarse_shading_runs.py " + " ".join(sys.argv[1:])]
     if args.append:
@@ -88,10 +95,7 @@ def main() -> None:
         table = pd.concat([earlier[~earlier.coarse_shading.isin(runs)], table], ignore_index=True)
         old = json.loads(args.out.with_suffix(".json").read_text())
         new_runs = [r for r in old["runs"] if r["coarse_shading"] not in runs] + new_runs
-        merged_by = [
-            *([old["merged_by"]] if isinstance(old["merged_by"], str) else old["merged_by"]),
-            *merged_by,
-        ]
+        merged_by = old["merged_by"] + merged_by
     io.write_csv(args.out, table)
     sidecar = {
         "note": "NDR stages on the default config, one coarse shading each",
