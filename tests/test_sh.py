@@ -145,3 +145,17 @@ def test_rotation_about_y_keeps_the_constant_and_composes():
     a, b = sh.rotation_about_y(0.4, 3), sh.rotation_about_y(0.7, 3)
     np.testing.assert_allclose(a @ b, sh.rotation_about_y(1.1, 3), atol=1e-12)
     np.testing.assert_allclose(a[0], np.eye(9)[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("library", ["numpy", "torch"])
+def test_eval_sh_along_another_axis_is_the_transposed_basis(library):
+    """Components along ``axis=-2`` (channels first) give the basis along that axis: the
+    same values as the default layout, transposed."""
+    dirs = sh.stratified_sphere_directions(36, np.random.default_rng(2)).reshape(2, 18, 3)
+    channels_first = np.swapaxes(dirs, -1, -2)
+    if library == "torch":
+        dirs, channels_first = torch.from_numpy(dirs), torch.from_numpy(channels_first.copy())
+    expected = np.swapaxes(np.asarray(sh.eval_sh(dirs, 5)), -1, -2)
+    got = np.asarray(sh.eval_sh(channels_first, 5, axis=-2))
+    assert got.shape == (2, 25, 18)
+    np.testing.assert_allclose(got, expected, atol=1e-15)

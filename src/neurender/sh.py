@@ -74,20 +74,29 @@ def sh_index(l: int, m: int) -> int:  # noqa: E741 - l is the standard name of t
     return l * (l + 1) + m
 
 
-def eval_sh(dirs: np.ndarray | torch.Tensor, n_bands: int = 4) -> np.ndarray | torch.Tensor:
+def eval_sh(
+    dirs: np.ndarray | torch.Tensor, n_bands: int = 4, axis: int = -1
+) -> np.ndarray | torch.Tensor:
     """Evaluate real SH at unit directions.
 
     Args:
-        dirs: ``(..., 3)`` unit vectors, numpy array or torch tensor (any float dtype).
+        dirs: ``(..., 3)`` unit vectors, numpy array or torch tensor (any float dtype);
+            the components along ``axis`` (e.g. ``-2`` for channels-first ``(..., 3, P)``).
         n_bands: number of bands, 1..5.
+        axis: the axis of ``dirs`` holding the components, and of the result holding the
+            basis functions.
 
     Returns:
-        ``(..., n_bands**2)`` basis values, same library, dtype and device as ``dirs``.
+        ``(..., n_bands**2)`` basis values (along ``axis``), same library, dtype and device
+        as ``dirs``.
     """
     check_bands(n_bands)
-    if dirs.shape[-1] != 3:
-        raise ValueError(f"dirs must have shape (..., 3), got {tuple(dirs.shape)}")
-    x, y, z = dirs[..., 0], dirs[..., 1], dirs[..., 2]
+    if dirs.shape[axis] != 3:
+        raise ValueError(f"dirs must have 3 components along axis {axis}, got {tuple(dirs.shape)}")
+    if isinstance(dirs, np.ndarray):
+        x, y, z = np.moveaxis(dirs, axis, 0)
+    else:
+        x, y, z = dirs.unbind(axis)
     ys = [_C00 + 0.0 * x]
     if n_bands > 1:
         ys += [-_C1 * y, _C1 * z, -_C1 * x]
@@ -123,10 +132,10 @@ def eval_sh(dirs: np.ndarray | torch.Tensor, n_bands: int = 4) -> np.ndarray | t
             0.25 * _C44 * (x2 * x2 - 6.0 * x2 * y2 + y2 * y2),
         ]
     if isinstance(dirs, np.ndarray):
-        return np.stack(ys, axis=-1)
+        return np.stack(ys, axis=axis)
     import torch
 
-    return torch.stack(ys, dim=-1)
+    return torch.stack(ys, dim=axis)
 
 
 def stratified_sphere_directions(n: int, rng: np.random.Generator) -> np.ndarray:

@@ -32,9 +32,11 @@ def test_constant_map_gives_unit_diffuse_shading():
     n = _normals(500, 0)
     exact = torch.zeros(25, 3, dtype=torch.float64)
     exact[0] = 2 * math.sqrt(math.pi)
-    np.testing.assert_allclose(pf.diffuse_shading(n, exact, NO_LIGHTS).numpy(), 1.0, atol=1e-12)
+    np.testing.assert_allclose(pf.diffuse_shading(n.T, exact, NO_LIGHTS).T.numpy(), 1.0, atol=1e-12)
     projected = torch.from_numpy(sh.project_latlong(np.ones((128, 256, 3)), 5))
-    np.testing.assert_allclose(pf.diffuse_shading(n, projected, NO_LIGHTS).numpy(), 1.0, atol=2e-4)
+    np.testing.assert_allclose(
+        pf.diffuse_shading(n.T, projected, NO_LIGHTS).T.numpy(), 1.0, atol=2e-4
+    )
 
 
 def test_linear_map_gives_the_analytic_irradiance():
@@ -47,7 +49,7 @@ def test_linear_map_gives_the_analytic_irradiance():
     n = _normals(300, 1)
     expected = (1.0 + 0.4 * n.numpy() @ d)[:, None] * np.array([1.0, 0.5, 0.25])
     np.testing.assert_allclose(
-        pf.diffuse_shading(n, coefficients, NO_LIGHTS).numpy(), expected, atol=1e-3
+        pf.diffuse_shading(n.T, coefficients, NO_LIGHTS).T.numpy(), expected, atol=1e-3
     )
 
 
@@ -70,12 +72,12 @@ def test_map_lookup_at_texel_centres_reads_the_texels():
     maps = torch.rand(
         1, 2, 8, 16, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(3)
     )
-    dirs = torch.from_numpy(sh.latlong_directions(8, 16)[0]).reshape(1, -1, 3)
+    dirs = torch.from_numpy(sh.latlong_directions(8, 16)[0]).reshape(1, -1, 3).transpose(1, 2)
     got = pf._map_lookup(maps, dirs, torch.zeros(1, 128, dtype=torch.float64))
-    np.testing.assert_allclose(got.numpy().reshape(8, 16, 3), maps[0, 0].numpy(), atol=1e-12)
+    np.testing.assert_allclose(got[0].T.reshape(8, 16, 3).numpy(), maps[0, 0].numpy(), atol=1e-12)
     half = pf._map_lookup(maps, dirs, torch.full((1, 128), 0.25, dtype=torch.float64))
     expected = 0.75 * maps[0, 0] + 0.25 * maps[0, 1]
-    np.testing.assert_allclose(half.numpy().reshape(8, 16, 3), expected.numpy(), atol=1e-12)
+    np.testing.assert_allclose(half[0].T.reshape(8, 16, 3).numpy(), expected.numpy(), atol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -108,6 +110,7 @@ def test_batched_shading_is_the_shading_of_each_image():
     assert bright[0, :, 3:6].sum() > 0
     n = _normals(200, 4).reshape(2, 100, 3)
     v = torch.nn.functional.normalize(n + 0.7 * _normals(200, 5).reshape(2, 100, 3), dim=-1)
+    n, v = n.transpose(1, 2), v.transpose(1, 2)  # channels first
     alpha = torch.rand(2, 100, dtype=torch.float64, generator=torch.Generator().manual_seed(6))
     both = pf.specular_shading(n, v, alpha, maps, pf.albedo_table(), bright)
     for b in range(2):

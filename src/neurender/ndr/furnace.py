@@ -104,10 +104,10 @@ def sun_check(mi, width: int, spp: int, samples: int, coarse_height: int, seed: 
         s_d, _ = _coarse(g, inside, small, samples, seed, max_bright=bright)
         errors[name] = float(np.abs(s_d.numpy() - i_d).mean() / i_d.mean())
     fast_d = prefiltered.diffuse_shading(
-        torch.from_numpy(g["normal"][inside]).double(),
+        torch.from_numpy(g["normal"][inside]).double().T,
         torch.from_numpy(sh.project_latlong(env, environments.SH_BANDS)),
         prefiltered.bright_lights(env, small)[0],
-    )
+    ).T
     errors["prefiltered"] = float(np.abs(fast_d.numpy() - i_d).mean() / i_d.mean())
     share = environments.sun_share(env, coarse_height)
     return _within(

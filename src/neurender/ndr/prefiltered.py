@@ -33,7 +33,12 @@ and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.
   importance sampling (:func:`albedo_table`).
 
 Maps follow :mod:`neurender.sh` (lat-long ``(h, 2h, 3)``, y up, texel centres, linear
-radiance); directions are world = view space (:mod:`neurender.ndr.render`). Clamps take
+radiance); directions are world = view space (:mod:`neurender.ndr.render`). Per-pixel
+inputs and outputs of :func:`diffuse_shading` and :func:`specular_shading` are channels
+first, ``(B, 3, P)`` (as the G-buffers are stored), and inside them a per-pixel vector is
+its three ``(B, P)`` components: in the shipped graph, ONNX Runtime broadcasts a pixel's
+scalar over a last axis of 3 several times slower than it combines whole images (the
+shading took 3.4 ms a frame pixel-major, 1.5 ms so; ``benchmarks/results/ndr_graph.csv``). Clamps take
 float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0, 1)`` with int
 bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX Runtime refuses
 the file).
@@ -135,17 +140,18 @@ def bright_lights(
 def diffuse_shading(
     normals: torch.Tensor, coefficients: torch.Tensor, lights: torch.Tensor
 ) -> torch.Tensor:
-    """``S_D`` ``(..., P, 3)`` at unit ``normals`` ``(..., P, 3)`` from the map's SH
-    ``coefficients`` ``(..., 25, 3)`` (:func:`neurender.sh.project_latlong`, 5 bands) and
-    its lights ``(..., K, LIGHT_COLUMNS)`` (:func:`bright_lights`): each light exactly, the
-    rest of the map by the SH less the lights' own, clamped at 0."""
+    """``S_D`` ``(..., 3, P)`` at unit ``normals`` ``(..., 3, P)`` (channels first, see
+    :func:`specular_shading`) from the map's SH ``coefficients`` ``(..., 25, 3)``
+    (:func:`neurender.sh.project_latlong`, 5 bands) and its lights ``(..., K,
+    LIGHT_COLUMNS)`` (:func:`bright_lights`): each light exactly, the rest of the map by the
+    SH less the lights' own, clamped at 0."""
     bands = math.isqrt(coefficients.shape[-2])
     scale = _irradiance_scale(bands).to(coefficients.dtype)
     dirs, power = lights[..., 0:3], lights[..., 3:6]
     rest = coefficients - sh.eval_sh(dirs, bands).transpose(-1, -2) @ power
-    basis = sh.eval_sh(normals, bands)  # (..., P, bands^2)
-    direct = (normals @ dirs.transpose(-1, -2)).clamp(min=0.0) @ power / math.pi
-    return (basis @ (rest * scale[:, None]) + direct).clamp(min=0.0)
+    basis = sh.eval_sh(normals, bands, axis=-2)  # (..., bands^2, P)
+    direct = power.transpose(-1, -2) @ (dirs @ normals).clamp(min=0.0) / math.pi
+    return ((rest * scale[:, None]).transpose(-1, -2) @ basis + direct).clamp(min=0.0)
 
 
 def level_roughness(levels: int = LEVELS) -> np.ndarray:
@@ -243,13 +249,20 @@ def _table_lookup(table: torch.Tensor, cos_v: torch.Tensor, roughness: torch.Ten
     )
 
 
+def _dot(a: tuple[torch.Tensor, ...], b: tuple[torch.Tensor, ...]) -> torch.Tensor:
+    """Dot product of two vectors given as their components (same shapes)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
 def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor):
-    """Trilinear read ``(B, P, 3)`` of prefiltered maps ``(B, L, h, 2h, 3)`` at unit
-    ``dirs`` ``(B, P, 3)``: bilinear between texel centres (wrapping in azimuth, clamped at
-    the poles) and linear in ``roughness`` ``(B, P)`` between the levels."""
+    """Trilinear read ``(B, 3, P)`` of prefiltered maps ``(B, L, h, 2h, 3)`` at unit
+    ``dirs`` ``(B, 3, P)`` (channels first, see :func:`specular_shading`): bilinear between
+    texel centres (wrapping in azimuth, clamped at the poles) and linear in ``roughness``
+    ``(B, P)`` between the levels."""
     batch, levels, h, w, _ = maps.shape
-    theta = torch.arccos(dirs[..., 1].clamp(-1.0, 1.0))
-    phi = torch.atan2(dirs[..., 0], -dirs[..., 2])
+    dx, dy, dz = dirs.unbind(1)
+    theta = torch.arccos(dy.clamp(-1.0, 1.0))
+    phi = torch.atan2(dx, -dz)
     y = theta / math.pi * h - 0.5
     x = phi / (2 * math.pi) * w - 0.5
     s = roughness.clamp(0.0, 1.0) * (levels - 1)
@@ -259,34 +272,38 @@ def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor)
     rows = [r0.clamp(0, h - 1).long(), (r0 + 1).clamp(0, h - 1).long()]
     cols = [torch.remainder(c0, w).long(), torch.remainder(c0 + 1, w).long()]
     first = (torch.arange(batch, device=maps.device)[:, None] * levels + k0.long()) * h
-    flat = maps.reshape(-1, 3)
-    out = torch.zeros_like(dirs)
+    index, weight = [], []
     for dk, wk in ((0, 1 - fk), (1, fk)):
         for row, wr in zip(rows, (1 - fy, fy), strict=True):
             for col, wc in zip(cols, (1 - fx, fx), strict=True):
-                index = ((first + dk * h + row) * w + col).reshape(-1)
-                out = out + flat[index].reshape(dirs.shape) * (wk * wr * wc)[..., None]
-    return out
+                index.append((first + dk * h + row) * w + col)
+                weight.append(wk * wr * wc)
+    # The eight corners in one gather of RGB rows, then channels first, so that each
+    # corner's weight scales whole (B, P) images (see specular_shading).
+    corners = maps.reshape(-1, 3)[torch.stack(index).reshape(-1)].T
+    corners = corners.reshape(3, 8, batch, -1).unbind(1)  # 8 x (3, B, P)
+    out = sum(c * wt for c, wt in zip(corners, weight, strict=True))
+    return out.transpose(0, 1)
 
 
 def light_specular(
     normals: torch.Tensor, view_dirs: torch.Tensor, alpha: torch.Tensor, lights: torch.Tensor
 ) -> torch.Tensor:
-    """``S_S`` ``(B, P, 3)`` of the disk lights ``(B, K, LIGHT_COLUMNS)``
+    """``S_S`` ``(B, 3, P)`` of the disk lights ``(B, K, LIGHT_COLUMNS)``
     (:func:`bright_lights`) alone: per light, its power x ``D(h) G(v, l) / (4 n.v)`` at its
     direction, ``D`` widened by its radius (module docstring); unit ``normals``,
-    ``view_dirs`` ``(B, P, 3)``, GGX width ``alpha`` ``(B, P)``."""
-    dirs, power, radius = lights[..., 0:3], lights[..., 3:6], lights[..., 6]
-    n_dot_l = normals @ dirs.transpose(1, 2)  # (B, P, K)
-    v_dot_l = view_dirs @ dirs.transpose(1, 2)
-    n_dot_v = (normals * view_dirs).sum(-1, keepdim=True)
-    # n.h with h = (l + v) / |l + v| and |l + v|^2 = 2 + 2 v.l: no (B, P, K, 3) temporaries.
+    ``view_dirs`` ``(B, 3, P)`` (channels first), GGX width ``alpha`` ``(B, P)``."""
+    dirs, power, radius = lights[..., 0:3], lights[..., 3:6], lights[..., 6:7]
+    n_dot_l = dirs @ normals  # (B, K, P)
+    v_dot_l = dirs @ view_dirs
+    n_dot_v = _dot(normals.unbind(1), view_dirs.unbind(1))[:, None]  # (B, 1, P)
+    # n.h with h = (l + v) / |l + v| and |l + v|^2 = 2 + 2 v.l: no (B, K, 3, P) temporaries.
     cos_h = (n_dot_l + n_dot_v) / torch.sqrt((2 + 2 * v_dot_l).clamp(min=1e-12))
-    a = alpha[..., None]
-    widened = torch.sqrt(a**2 + radius[:, None] ** 2 / 8)
+    a = alpha[:, None]
+    widened = torch.sqrt(a * a + radius * radius / 8)
     brdf = ggx_d(cos_h, widened) * smith_g1(n_dot_l, a) * smith_g1(n_dot_v, a)
     brdf = torch.where((n_dot_l > 0) & (n_dot_v > 0), brdf / (4 * n_dot_v.clamp(min=1e-7)), 0.0)
-    return brdf @ power
+    return power.transpose(1, 2) @ brdf
 
 
 def specular_shading(
@@ -297,24 +314,31 @@ def specular_shading(
     table: torch.Tensor,
     lights: torch.Tensor,
 ) -> torch.Tensor:
-    """``S_S`` ``(B, P, 3)``: the lights (:func:`light_specular`) and the rest of the map by
-    the split sum (module docstring): unit ``normals`` and ``view_dirs`` ``(B, P, 3)``
+    """``S_S`` ``(B, 3, P)``: the lights (:func:`light_specular`) and the rest of the map by
+    the split sum (module docstring): unit ``normals`` and ``view_dirs`` ``(B, 3, P)``
     (towards the eye), GGX width ``alpha`` ``(B, P)``, the prefiltered maps of the map
     without its lights ``(B, L, h, 2h, 3)`` (:func:`prefilter`), :func:`albedo_table` and
-    the lights ``(B, K, LIGHT_COLUMNS)``; 0 where ``n.v <= 0``."""
-    cos_v = (normals * view_dirs).sum(-1)
-    mirror = 2 * cos_v[..., None] * normals - view_dirs
+    the lights ``(B, K, LIGHT_COLUMNS)``; 0 where ``n.v <= 0``.
+
+    Channels first, and per-pixel vectors as their three ``(B, P)`` components: ONNX
+    Runtime broadcasts a per-pixel scalar over a last axis of 3 (or reduces over it)
+    several times slower than it combines whole ``(B, P)`` images, which made this the
+    shipped graph's costliest part."""
+    n, v = normals.unbind(1), view_dirs.unbind(1)
+    cos_v = _dot(n, v)
     # The lobe of a rough surface leans from the mirror direction towards the normal
     # (Lagarde and de Rousiers 2014, "dominant direction"): without this the maps are read
     # too near the horizon and S_S of roughness 0.9 comes out up to 2x too dark.
     smooth = 1 - alpha.clamp(0.0, 1.0)
-    lean = (smooth * (torch.sqrt(smooth) + alpha))[..., None]
-    dominant = normals + lean * (mirror - normals)
-    dominant = dominant / dominant.norm(dim=-1, keepdim=True).clamp(min=1e-12)
+    lean = smooth * (torch.sqrt(smooth) + alpha)
+    mirror = [2 * cos_v * ni - vi for ni, vi in zip(n, v, strict=True)]
+    dominant = [ni + lean * (mi - ni) for ni, mi in zip(n, mirror, strict=True)]
+    length = torch.sqrt(_dot(dominant, dominant)).clamp(min=1e-12)
+    dominant = torch.stack([d / length for d in dominant], 1)
     roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
     radiance = _map_lookup(maps, dominant, roughness)
     albedo = _table_lookup(table.to(normals.dtype), cos_v, roughness)
-    rest = torch.where(cos_v > 0, albedo, 0.0)[..., None] * radiance
+    rest = torch.where(cos_v > 0, albedo, 0.0)[:, None] * radiance
     return rest + light_specular(normals, view_dirs, alpha, lights)
 
 
@@ -338,15 +362,15 @@ def prefiltered_shading(
     """
     dtype = normals.dtype
     lights = lights.to(dtype)
-    s_d = diffuse_shading(normals, coefficients.to(dtype), lights)
+    s_d = diffuse_shading(normals.T, coefficients.to(dtype), lights).T
     s_s = specular_shading(
-        normals[None],
-        view_dirs[None],
+        normals.T[None],
+        view_dirs.T[None],
         alpha[None].to(dtype),
         maps[None].to(dtype),
         albedo_table(),
         lights[None],
-    )[0]
+    )[0].T
     return s_d, s_s
 
 

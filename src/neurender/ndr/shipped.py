@@ -58,7 +58,7 @@ class CoarseShading(nn.Module):
         super().__init__()
         self.groups = groups
         self.counts = [channel_count(g) for g in groups]
-        view = -pixel_rays(camera(distance, fov), width).reshape(-1, 3)
+        view = -pixel_rays(camera(distance, fov), width).reshape(-1, 3).T  # (3, HW)
         self.register_buffer("view_dirs", torch.from_numpy(view.astype(np.float32)))
         self.register_buffer("table", prefiltered.albedo_table().float())
 
@@ -67,17 +67,15 @@ class CoarseShading(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor]:
         g = dict(zip(self.groups, torch.split(gbuffers, self.counts, 1), strict=True))
         b, _, h, w = gbuffers.shape
-        normals = g["N"].flatten(2).transpose(1, 2)  # (B, HW, 3)
-        alpha = g["R"].flatten(1) ** 2
+        normals = g["N"].flatten(2)  # (B, 3, HW): channels first, as specular_shading wants
+        roughness = g["R"].flatten(1)
+        alpha = roughness * roughness
         view = self.view_dirs.expand(b, -1, -1)
-        s_d = prefiltered.diffuse_shading(normals, sh.reshape(b, SH_FEATURES // 3, 3), lights)
+        coefficients = sh.reshape(b, SH_FEATURES // 3, 3)
+        s_d = prefiltered.diffuse_shading(normals, coefficients, lights)
         s_s = prefiltered.specular_shading(normals, view, alpha, maps, self.table, lights)
         mask = g["mask"]
-
-        def image(x: torch.Tensor) -> torch.Tensor:
-            return x.transpose(1, 2).reshape(b, 3, h, w) * mask
-
-        return image(s_d), image(s_s)
+        return s_d.reshape(b, 3, h, w) * mask, s_s.reshape(b, 3, h, w) * mask
 
 
 class ShadingPart(nn.Module):
