@@ -9,6 +9,7 @@ from neurender.prt.frames import Split
 from neurender.prt.local_model import (
     DilatedNet,
     LocalConfig,
+    PixelNorm,
     ShadowingTransfer,
     load_local,
     local_features,
@@ -199,3 +200,18 @@ def test_a_core_that_outputs_the_encoded_term_reproduces_the_targets(architectur
         np.testing.assert_allclose(z.std(dim=(0, 2, 3), unbiased=False), 1.0, rtol=1e-4)
     else:
         assert 0 < z.min() and z.max() < 1
+
+
+def test_pixel_norm_is_a_layer_norm_over_each_pixels_channels():
+    """An independent implementation: torch's layer norm over the channels of every pixel,
+    with the same affine map."""
+    norm = PixelNorm(5)
+    with torch.no_grad():
+        norm.weight.normal_(generator=torch.Generator().manual_seed(0))
+        norm.bias.normal_(generator=torch.Generator().manual_seed(1))
+    x = 3 * torch.randn(2, 5, 4, 3, generator=torch.Generator().manual_seed(2)) + 1
+    expected = torch.nn.functional.layer_norm(
+        x.permute(0, 2, 3, 1), (5,), norm.weight.flatten(), norm.bias.flatten(), norm.eps
+    ).permute(0, 3, 1, 2)
+    torch.testing.assert_close(norm(x), expected, atol=1e-5, rtol=1e-5)
+    assert "average" not in norm.state_dict()  # checkpoints keep their keys

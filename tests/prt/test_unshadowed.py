@@ -97,3 +97,21 @@ def test_pipeline_transfer_of_an_unoccluded_plane_is_unshadowed():
     assert np.abs(diffuse - want_d).max() < 0.02
     assert np.abs(diffuse.mean((0, 1)) - want_d).max() < 6e-3
     assert np.abs(glossy.mean((0, 1)) - want_g).max() < 0.02 * np.abs(want_g).max()
+
+
+@pytest.mark.parametrize("library", ["numpy", "torch"])
+def test_channels_first_images_give_the_per_pixel_transfer(library):
+    """``axis=1`` on normal images ``(B, 3, H, W)``: every pixel's diffuse and glossy
+    transfer as the default layout gives it, along the channel axis."""
+    rng = np.random.default_rng(4)
+    normals = _unit(rng, 2 * 5 * 6).reshape(2, 5, 6, 3)
+    coeffs = unshadowed.glossy_polynomial(rng.normal(size=(16, 3)))
+    images = np.ascontiguousarray(normals.transpose(0, 3, 1, 2))
+    if library == "torch":
+        normals, images, coeffs = (torch.from_numpy(a) for a in (normals, images, coeffs))
+    for per_pixel, channels_first in (
+        (unshadowed.diffuse(normals, 4), unshadowed.diffuse(images, 4, axis=1)),
+        (unshadowed.glossy(normals, coeffs), unshadowed.glossy(images, coeffs, axis=1)),
+    ):
+        expected = np.asarray(per_pixel).transpose(0, 3, 1, 2)
+        np.testing.assert_allclose(np.asarray(channels_first), expected, atol=1e-12)

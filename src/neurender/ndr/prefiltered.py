@@ -38,10 +38,10 @@ inputs and outputs of :func:`diffuse_shading` and :func:`specular_shading` are c
 first, ``(B, 3, P)`` (as the G-buffers are stored), and inside them a per-pixel vector is
 its three ``(B, P)`` components: in the shipped graph, ONNX Runtime broadcasts a pixel's
 scalar over a last axis of 3 several times slower than it combines whole images (the
-shading took 3.4 ms a frame pixel-major, 1.5 ms so; ``benchmarks/results/ndr_graph.csv``). Clamps take
-float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0, 1)`` with int
-bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX Runtime refuses
-the file).
+shading took 3.4 ms a frame pixel-major, 1.5 ms so; ``benchmarks/results/ndr_graph.csv``).
+Clamps take float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0,
+1)`` with int bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX
+Runtime refuses the file).
 """
 
 from __future__ import annotations

@@ -40,11 +40,16 @@ def band_scale(n_bands: int) -> np.ndarray:
     return np.concatenate([np.full(2 * b + 1, COSINE_LOBE[b]) for b in range(n_bands)])
 
 
-def diffuse(normals: np.ndarray | torch.Tensor, n_bands: int = 4) -> np.ndarray | torch.Tensor:
+def diffuse(
+    normals: np.ndarray | torch.Tensor, n_bands: int = 4, axis: int = -1
+) -> np.ndarray | torch.Tensor:
     """Unshadowed diffuse transfer ``(..., n_bands**2)`` of unit normals ``(..., 3)``,
-    same library, dtype and device as ``normals``."""
-    basis = sh.eval_sh(normals, n_bands)
-    scale = band_scale(n_bands)
+    same library, dtype and device as ``normals``; components and coefficients along
+    ``axis`` (e.g. ``1`` for images ``(B, 3, H, W)`` to ``(B, K, H, W)``)."""
+    basis = sh.eval_sh(normals, n_bands, axis)
+    shape = [1] * basis.ndim
+    shape[axis] = -1
+    scale = band_scale(n_bands).reshape(shape)
     if isinstance(basis, np.ndarray):
         return basis * scale.astype(basis.dtype)
     import torch
@@ -62,15 +67,21 @@ def monomial_exponents(degree: int) -> list[tuple[int, int, int]]:
     ]
 
 
-def monomials(normals: np.ndarray | torch.Tensor, degree: int) -> np.ndarray | torch.Tensor:
-    """``(..., M)`` monomials of :func:`monomial_exponents` at ``normals`` ``(..., 3)``."""
-    x, y, z = normals[..., 0], normals[..., 1], normals[..., 2]
+def monomials(
+    normals: np.ndarray | torch.Tensor, degree: int, axis: int = -1
+) -> np.ndarray | torch.Tensor:
+    """``(..., M)`` monomials of :func:`monomial_exponents` at ``normals`` ``(..., 3)``;
+    components and monomials along ``axis``."""
+    if isinstance(normals, np.ndarray):
+        x, y, z = np.moveaxis(normals, axis, 0)
+    else:
+        x, y, z = normals.unbind(axis)
     cols = [x**a * y**b * z**c for a, b, c in monomial_exponents(degree)]
     if isinstance(normals, np.ndarray):
-        return np.stack(cols, -1)
+        return np.stack(cols, axis)
     import torch
 
-    return torch.stack(cols, -1)
+    return torch.stack(cols, axis)
 
 
 def hemisphere_quadrature(normal: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
@@ -125,9 +136,16 @@ def glossy_polynomial(light: np.ndarray, samples: int = 400, seed: int = 0) -> n
 
 
 def glossy(
-    normals: np.ndarray | torch.Tensor, coeffs: np.ndarray | torch.Tensor
+    normals: np.ndarray | torch.Tensor, coeffs: np.ndarray | torch.Tensor, axis: int = -1
 ) -> np.ndarray | torch.Tensor:
     """Unshadowed glossy transferred radiance ``(..., 3 K)`` (colour-major) of unit
-    normals ``(..., 3)`` from :func:`glossy_polynomial`'s ``coeffs`` ``(M, 3 K)``."""
+    normals ``(..., 3)`` from :func:`glossy_polynomial`'s ``coeffs`` ``(M, 3 K)``;
+    components and radiance along ``axis``."""
     degree = next(d for d in range(64) if len(monomial_exponents(d)) == coeffs.shape[0])
-    return monomials(normals, degree) @ coeffs
+    m = monomials(normals, degree, axis)
+    axis %= m.ndim
+    if axis == m.ndim - 1:
+        return m @ coeffs
+    # (..., M, rest) to (..., 3 K, rest): one product over the flattened trailing axes.
+    flat = m.reshape(*m.shape[: axis + 1], -1)
+    return (coeffs.T @ flat).reshape(*m.shape[:axis], coeffs.shape[1], *m.shape[axis + 1 :])
