@@ -184,7 +184,7 @@ STUDIES = (
         csv="benchmarks/results/ndr_coarse_shading_runs.csv",
         title="Coarse shading the networks train on: importance-sampled against prefiltered",
         description=(
-            "DSSIM of the tone-mapped I_R on the test samples of four NDR stages on the "
+            "DSSIM of the tone-mapped I_R on the test samples of five NDR stages on the "
             "default config that differ only in the coarse shading: importance-sampled, "
             "prefiltered with its SH and prefiltered maps only (both at 1d43cd2; the "
             "importance run trained ndr and ndr_direct only), prefiltered with the "
@@ -192,7 +192,10 @@ STUDIES = (
             "smaller U-Net (widths 12 24 48 96 instead of 16 32 64 128; 113e762), the "
             "attempt at a faster shipped graph: 11.8 ms a frame, 14.6x Mitsuba at 64 spp "
             "on that day's machine, on which Mitsuba took 172 ms, not 370 (30x missed), "
-            "and worse under the real-world-like maps (not the default); every network "
+            "and worse under the real-world-like maps (not the default), and the default "
+            "with its shading computed channels first (same values, faster graph; "
+            "d696811, another machine: 7.5 ms a frame, 19.0x Mitsuba's 142 ms at 64 spp, "
+            "30x missed); every network "
             "trained for 8 epochs, the best validation epoch kept. Rows shading_input "
             "and noise floor are untrained."
         ),
