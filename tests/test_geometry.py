@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from neurender.geometry import grid_faces, grid_normals, vertex_normals
+from neurender.geometry import dot_components, grid_faces, grid_normals, vertex_normals
 from neurender.prt import geometry_image as gi
 
 
@@ -36,3 +36,10 @@ def test_vertex_normals_weight_faces_by_area():
     big, small = np.array([0, 0, 1.0]) * 2.0, np.array([-1.0, 0, 0]) * 0.005
     expected = (big + small) / np.linalg.norm(big + small)
     np.testing.assert_allclose(n, expected, atol=1e-12)
+
+
+def test_dot_components_is_the_dot_product_of_the_vectors():
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=(2, 4, 7, 3))
+    got = dot_components(np.moveaxis(a, -1, 0), np.moveaxis(b, -1, 0))
+    np.testing.assert_allclose(got, np.einsum("ijk,ijk->ij", a, b), atol=1e-12)

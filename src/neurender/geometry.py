@@ -1,4 +1,5 @@
-"""Triangle meshes and grid meshes: normals and connectivity every method shares.
+"""Triangle meshes and grid meshes: normals and connectivity every method shares, and
+vector arithmetic on components.
 
 Conventions: positions ``(V, 3)`` float in world units, faces ``(F, 3)`` int vertex indices,
 counter-clockwise seen from the side the normals point to. A grid mesh is an ``n x n``
@@ -7,6 +8,8 @@ array of vertices ``(n, n, 3)`` (a geometry image) flattened row-major (vertex `
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -47,3 +50,10 @@ def grid_normals(positions: np.ndarray) -> np.ndarray:
     for i, j in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
         normals[i, j] = normals[1 if i == 0 else -2, 1 if j == 0 else -2]
     return normals
+
+
+def dot_components(a: Sequence, b: Sequence):
+    """Dot product of two 3-vectors given as their components (three arrays or tensors of
+    one shape each), element-wise: what an ONNX graph runs fastest, with no last axis of 3
+    (see :mod:`neurender.ndr.prefiltered`)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

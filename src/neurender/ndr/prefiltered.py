@@ -53,6 +53,7 @@ import numpy as np
 import torch
 
 from neurender import sh
+from neurender.geometry import dot_components
 from neurender.ndr.environments import SH_BANDS
 from neurender.ndr.shading import MAX_BRIGHT, bright_texels, ggx_d, smith_g1
 
@@ -249,11 +250,6 @@ def _table_lookup(table: torch.Tensor, cos_v: torch.Tensor, roughness: torch.Ten
     )
 
 
-def _dot(a: tuple[torch.Tensor, ...], b: tuple[torch.Tensor, ...]) -> torch.Tensor:
-    """Dot product of two vectors given as their components (same shapes)."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor):
     """Trilinear read ``(B, 3, P)`` of prefiltered maps ``(B, L, h, 2h, 3)`` at unit
     ``dirs`` ``(B, 3, P)`` (channels first, see :func:`specular_shading`): bilinear between
@@ -296,7 +292,7 @@ def light_specular(
     dirs, power, radius = lights[..., 0:3], lights[..., 3:6], lights[..., 6:7]
     n_dot_l = dirs @ normals  # (B, K, P)
     v_dot_l = dirs @ view_dirs
-    n_dot_v = _dot(normals.unbind(1), view_dirs.unbind(1))[:, None]  # (B, 1, P)
+    n_dot_v = dot_components(normals.unbind(1), view_dirs.unbind(1))[:, None]  # (B, 1, P)
     # n.h with h = (l + v) / |l + v| and |l + v|^2 = 2 + 2 v.l: no (B, K, 3, P) temporaries.
     cos_h = (n_dot_l + n_dot_v) / torch.sqrt((2 + 2 * v_dot_l).clamp(min=1e-12))
     a = alpha[:, None]
@@ -325,7 +321,7 @@ def specular_shading(
     several times slower than it combines whole ``(B, P)`` images, which made this the
     shipped graph's costliest part."""
     n, v = normals.unbind(1), view_dirs.unbind(1)
-    cos_v = _dot(n, v)
+    cos_v = dot_components(n, v)
     # The lobe of a rough surface leans from the mirror direction towards the normal
     # (Lagarde and de Rousiers 2014, "dominant direction"): without this the maps are read
     # too near the horizon and S_S of roughness 0.9 comes out up to 2x too dark.
@@ -333,7 +329,7 @@ def specular_shading(
     lean = smooth * (torch.sqrt(smooth) + alpha)
     mirror = [2 * cos_v * ni - vi for ni, vi in zip(n, v, strict=True)]
     dominant = [ni + lean * (mi - ni) for ni, mi in zip(n, mirror, strict=True)]
-    length = torch.sqrt(_dot(dominant, dominant)).clamp(min=1e-12)
+    length = torch.sqrt(dot_components(dominant, dominant)).clamp(min=1e-12)
     dominant = torch.stack([d / length for d in dominant], 1)
     roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
     radiance = _map_lookup(maps, dominant, roughness)

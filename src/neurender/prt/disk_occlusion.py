@@ -32,6 +32,7 @@ import torch
 import torch.nn.functional as F  # noqa: N812 - the usual name
 
 from neurender import sh
+from neurender.geometry import dot_components
 
 #: Blocks per side of the emitters and receivers by default (65,536 pairs).
 DEFAULT_GRID = 16
@@ -89,12 +90,12 @@ def occluded_transfer(
     receiver_normals = F.normalize(F.avg_pool2d(normals, stride), dim=1).flatten(2).unbind(1)
     # Receivers are the same blocks as the emitters: v = q_e - p_r, (B, R, E).
     v = [c[:, None, :] - c[:, :, None] for c in centres]
-    d2 = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).clamp_min(1e-12)
+    d2 = dot_components(v, v).clamp_min(1e-12)
     inverse = torch.rsqrt(d2)
     w = [c * inverse for c in v]
-    facing = sum(a[:, None, :] * wc for a, wc in zip(areas, w, strict=True)).abs()
+    facing = dot_components([a[:, None, :] for a in areas], w).abs()
     omega = 2.0 * math.pi * (1.0 - torch.rsqrt(1.0 + facing / (math.pi * d2)))
-    cosine = sum(nc[:, :, None] * wc for nc, wc in zip(receiver_normals, w, strict=True))
+    cosine = dot_components([nc[:, :, None] for nc in receiver_normals], w)
     y = sh.eval_sh(torch.stack(w, 2), n_bands, axis=2)  # (B, R, K, E)
     # Sums over the emitters as batched matrix products with y transposed,
     # (B, R, ., E) @ (B, R, E, K), which ONNX Runtime fuses into one product.
