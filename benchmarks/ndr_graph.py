@@ -7,10 +7,15 @@ weights at initialisation: the time does not depend on them) at 64 x 64, one ran
 of the data under a real-world-like map. Three ONNX files, each checked against PyTorch
 by :func:`neurender.nn.inference.export_onnx`: the prefiltered coarse shading alone, the
 network alone (:class:`neurender.ndr.deploy.NDRGraph`, what ``ndr_deploy`` ships today) and
-the two in one graph. Writes ``<out>.csv``: per part and thread count, the median
-milliseconds of one frame by ONNX Runtime and by PyTorch (the parts timed in turn, the
-least loaded of :data:`ROUNDS` rounds), and the check's largest
-difference; ``<out>.json``: the command, commit and hardware.
+the two in one graph. Each also as an int8 graph (``... int8 convolutions``): its
+convolutions quantized by ONNX Runtime's static QDQ quantizer (:func:`int8_convolutions`:
+weights per channel, activations calibrated on this frame), timed by ONNX Runtime alone.
+The int8 rows measure speed only: with weights at initialisation their difference from
+float32 says nothing about a trained network's quality, which is not measured here.
+Writes ``<out>.csv``: per part and thread count, the median milliseconds of one frame by
+ONNX Runtime and by PyTorch (the parts timed in turn, the least loaded of :data:`ROUNDS`
+rounds), and the check's largest difference (for int8, from the float32 graph's output);
+``<out>.json``: the command, commit and hardware.
 """
 
 from __future__ import annotations
@@ -24,6 +29,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
+from onnxruntime.quantization import (
+    CalibrationDataReader,
+    QuantFormat,
+    QuantType,
+    quant_pre_process,
+    quantize_static,
+)
 
 from neurender import io
 from neurender.ndr import environments, objects, render
@@ -33,9 +45,9 @@ from neurender.ndr.deploy import NDRGraph, graph_groups
 from neurender.ndr.model import NDRModel
 from neurender.ndr.shipped import INPUTS, ShadingPart, ShippedNDR, gbuffer_groups
 from neurender.ndr.variants import VARIANTS
-from neurender.nn.inference import engine_milliseconds, export_onnx
+from neurender.nn.inference import OnnxNetwork, engine_milliseconds, export_onnx
 from neurender.provenance import git_state
-from neurender.timing import hardware
+from neurender.timing import hardware, timed
 
 WIDTH, DISTANCE, FOV, ENV_HEIGHT, COARSE_HEIGHT = 64, 3.9, 30.0, 128, 16
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,6 +67,35 @@ def buffers(seed: int) -> dict[str, torch.Tensor]:
         x = torch.from_numpy(np.ascontiguousarray(g[key], np.float32))
         out[group] = (x[..., None] if x.ndim == 2 else x).permute(2, 0, 1)[None]
     return out
+
+
+class _Frames(CalibrationDataReader):
+    """The calibration frames: ``feeds``, a list of input name -> array, once."""
+
+    def __init__(self, feeds: list[dict[str, np.ndarray]]):
+        self.feeds = iter(feeds)
+
+    def get_next(self) -> dict[str, np.ndarray] | None:
+        return next(self.feeds, None)
+
+
+def int8_convolutions(source: Path, target: Path, feeds: dict[str, np.ndarray]) -> None:
+    """``source`` with its convolutions int8 (weights per channel, unsigned activations
+    calibrated on ``feeds``, QDQ format) written to ``target``; other operators stay
+    float32."""
+    prepared = target.with_suffix(".prepared.onnx")
+    # ONNX shape inference only: the symbolic one cannot follow the shading's gathers.
+    quant_pre_process(str(source), str(prepared), skip_symbolic_shape=True)
+    quantize_static(
+        str(prepared),
+        str(target),
+        _Frames([feeds]),
+        quant_format=QuantFormat.QDQ,
+        per_channel=True,
+        activation_type=QuantType.QUInt8,
+        weight_type=QuantType.QInt8,
+        op_types_to_quantize=["Conv"],
+    )
 
 
 def main() -> None:
@@ -90,6 +131,14 @@ def main() -> None:
             errors[name] = export_onnx(
                 module, pair, files[name], atol=1e-3, rtol=1e-4, input_names=names
             )
+        # The int8 graphs, each against its float32 graph's output on the same frame.
+        int8 = {}
+        for name, (_, x, names) in parts.items():
+            arrays = [t.numpy() for t in x]
+            target = files[name].with_suffix(".int8.onnx")
+            int8_convolutions(files[name], target, dict(zip(names, arrays, strict=True)))
+            reference, quantized = (OnnxNetwork(f)(*arrays) for f in (files[name], target))
+            int8[f"{name}, int8 convolutions"] = (target, arrays, np.abs(quantized - reference))
         for threads in (1, 2):
             # The machine is shared: the parts are timed in turn, ROUNDS times, and each
             # keeps its least loaded round.
@@ -107,6 +156,21 @@ def main() -> None:
                         "pytorch_ms": best[name]["pytorch"],
                         "max_abs_diff_vs_pytorch": errors[name],
                         "onnx_bytes": files[name].stat().st_size,
+                        "hardware": hardware(threads, "cpu"),
+                    }
+                )
+                print(rows[-1], flush=True)
+            for name, (target, arrays, difference) in int8.items():
+                session = OnnxNetwork(target, threads)
+                ms = min(timed(session, *arrays, repeats=21, warmup=2)[1] for _ in range(ROUNDS))
+                rows.append(
+                    {
+                        "part": name,
+                        "threads": threads,
+                        "onnxruntime_ms": 1000 * ms,
+                        "pytorch_ms": np.nan,
+                        "max_abs_diff_vs_pytorch": float(difference.max()),
+                        "onnx_bytes": target.stat().st_size,
                         "hardware": hardware(threads, "cpu"),
                     }
                 )
