@@ -221,8 +221,10 @@ STUDIES = (
         title="Shipped graph: milliseconds per part",
         description=(
             "Median ONNX Runtime milliseconds of one 64 x 64 frame of the default network, "
-            "the prefiltered coarse shading and the two in one graph, per thread count "
-            "(the CSV also holds PyTorch's times and the export check)."
+            "the prefiltered coarse shading and the two in one graph, per thread count, "
+            "each also with its convolutions int8 (ONNX Runtime's static QDQ quantizer; "
+            "speed only: weights at initialisation, a trained network's quality in int8 "
+            "not measured). The CSV also holds PyTorch's times and the export check."
         ),
         index=("part",),
         columns=("threads",),
