@@ -8,8 +8,9 @@ of the data under a real-world-like map. Three ONNX files, each checked against 
 by :func:`neurender.nn.inference.export_onnx`: the prefiltered coarse shading alone, the
 network alone (:class:`neurender.ndr.deploy.NDRGraph`, what ``ndr_deploy`` ships today) and
 the two in one graph. Each also as an int8 graph (``... int8 convolutions``): its
-convolutions quantized by ONNX Runtime's static QDQ quantizer (:func:`int8_convolutions`:
-weights per channel, activations calibrated on this frame), timed by ONNX Runtime alone.
+convolutions quantized by ONNX Runtime's static QDQ quantizer
+(:func:`neurender.nn.inference.quantize_convolutions`: weights per channel, activations
+calibrated on this frame), timed by ONNX Runtime alone.
 The int8 rows measure speed only: with weights at initialisation their difference from
 float32 says nothing about a trained network's quality, which is not measured here.
 Writes ``<out>.csv``: per part and thread count, the median milliseconds of one frame by
@@ -29,13 +30,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-from onnxruntime.quantization import (
-    CalibrationDataReader,
-    QuantFormat,
-    QuantType,
-    quant_pre_process,
-    quantize_static,
-)
 
 from neurender import io
 from neurender.ndr import environments, objects, render
@@ -45,7 +39,12 @@ from neurender.ndr.deploy import NDRGraph, graph_groups
 from neurender.ndr.model import NDRModel
 from neurender.ndr.shipped import INPUTS, ShadingPart, ShippedNDR, gbuffer_groups
 from neurender.ndr.variants import VARIANTS
-from neurender.nn.inference import OnnxNetwork, engine_milliseconds, export_onnx
+from neurender.nn.inference import (
+    OnnxNetwork,
+    engine_milliseconds,
+    export_onnx,
+    quantize_convolutions,
+)
 from neurender.provenance import git_state
 from neurender.timing import hardware, timed
 
@@ -67,35 +66,6 @@ def buffers(seed: int) -> dict[str, torch.Tensor]:
         x = torch.from_numpy(np.ascontiguousarray(g[key], np.float32))
         out[group] = (x[..., None] if x.ndim == 2 else x).permute(2, 0, 1)[None]
     return out
-
-
-class _Frames(CalibrationDataReader):
-    """The calibration frames: ``feeds``, a list of input name -> array, once."""
-
-    def __init__(self, feeds: list[dict[str, np.ndarray]]):
-        self.feeds = iter(feeds)
-
-    def get_next(self) -> dict[str, np.ndarray] | None:
-        return next(self.feeds, None)
-
-
-def int8_convolutions(source: Path, target: Path, feeds: dict[str, np.ndarray]) -> None:
-    """``source`` with its convolutions int8 (weights per channel, unsigned activations
-    calibrated on ``feeds``, QDQ format) written to ``target``; other operators stay
-    float32."""
-    prepared = target.with_suffix(".prepared.onnx")
-    # ONNX shape inference only: the symbolic one cannot follow the shading's gathers.
-    quant_pre_process(str(source), str(prepared), skip_symbolic_shape=True)
-    quantize_static(
-        str(prepared),
-        str(target),
-        _Frames([feeds]),
-        quant_format=QuantFormat.QDQ,
-        per_channel=True,
-        activation_type=QuantType.QUInt8,
-        weight_type=QuantType.QInt8,
-        op_types_to_quantize=["Conv"],
-    )
 
 
 def main() -> None:
@@ -136,7 +106,7 @@ def main() -> None:
         for name, (_, x, names) in parts.items():
             arrays = [t.numpy() for t in x]
             target = files[name].with_suffix(".int8.onnx")
-            int8_convolutions(files[name], target, dict(zip(names, arrays, strict=True)))
+            quantize_convolutions(files[name], target, [dict(zip(names, arrays, strict=True))])
             reference, quantized = (OnnxNetwork(f)(*arrays) for f in (files[name], target))
             int8[f"{name}, int8 convolutions"] = (target, arrays, np.abs(quantized - reference))
         for threads in (1, 2):

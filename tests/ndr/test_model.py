@@ -13,6 +13,7 @@ from neurender.ndr.model import (
 )
 from neurender.ndr.variants import VARIANTS
 from neurender.nn.ndr import NDRNet
+from neurender.nn.unet import count_parameters
 
 SMALL = {"widths": [4, 8], "sh_hidden": 8, "ngf": 4, "width": 32, "shading_residual": True}
 
@@ -110,6 +111,22 @@ def test_both_decoders_train_the_shared_encoder():
         grads.append(first.grad.clone())
         assert first.grad.abs().sum() > 0
     assert not torch.allclose(grads[0], grads[1])
+
+
+@pytest.mark.parametrize("conv_first", [False, True])
+def test_each_decoder_level_convolves_at_the_resolution_its_order_says(conv_first):
+    """The paper upsamples, then convolves; ours convolves at the coarser level first: the
+    same weights and output size, the convolution on a quarter of the pixels."""
+    net = NDRNet(11, 3, [4, 8, 16], decoders=1, conv_before_upsample=conv_first).eval()
+    sizes = []
+    for up in net.decoders[0].ups:
+        conv = next(m for m in up.modules() if isinstance(m, torch.nn.Conv2d))
+        conv.register_forward_hook(lambda m, x, y: sizes.append(x[0].shape[-1]))
+    out = net(torch.randn(1, 11, 16, 16), torch.randn(1, 75))
+    assert out.shape == (1, 3, 16, 16)
+    assert sizes == ([4, 8] if conv_first else [8, 16])  # bottleneck 4 x 4
+    paper = NDRNet(11, 3, [4, 8, 16], decoders=1, conv_before_upsample=False)
+    assert count_parameters(net) == count_parameters(paper)
 
 
 def test_light_and_input_size_are_checked():

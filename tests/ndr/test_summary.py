@@ -1,4 +1,6 @@
 import pandas as pd
+import pytest
+import torch
 
 from neurender.ndr import equal_quality as eq
 from neurender.ndr import summary
@@ -12,12 +14,18 @@ def _metrics(rows: list[tuple[str, str, float]]) -> pd.DataFrame:
     )
 
 
-def _equal() -> pd.DataFrame:
-    """An equal-quality table: NDR 40x faster than the training 64 spp, 4x at equal DSSIM."""
+def _equal(int8_dssim: float = 0.041) -> pd.DataFrame:
+    """An equal-quality table: NDR 40x faster than the training 64 spp, 4x at equal DSSIM;
+    its int8 graph 80x and 8x, and the shipped graphs' scores on the whole test split
+    (int8 ``int8_dssim`` against float32 0.040)."""
     scores = {"spp": [4, 16, 64], "ms_per_frame": [2.0, 8.0, 80.0], eq.METRIC: [0.06, 0.03, 0.01]}
     scores = pd.DataFrame(scores).assign(scene_ms=1.0)
     network = {"coarse_shading_ms": 1.0, "network_ms": 1.0, "ms_per_frame": 2.0}
-    return eq.table(scores, 0.04, network, 64)
+    networks = {eq.NETWORK: network | {eq.METRIC: 0.04}}
+    networks[eq.NETWORK_INT8] = {"ms_per_frame": 1.0, eq.METRIC: 0.04}
+    whole = {("complex", eq.NETWORK): 0.040, ("complex", eq.NETWORK_INT8): int8_dssim}
+    graphs = eq.graph_table({k: {eq.METRIC: torch.tensor([v])} for k, v in whole.items()})
+    return pd.concat([eq.table(scores, networks, 64), graphs])
 
 
 def test_stage_minutes_weigh_each_job_by_its_threads(tmp_path):
@@ -46,8 +54,17 @@ def test_targets_state_met_and_missed():
     assert met["noise floor"]
     assert met["stage"]  # 15 min <= 25
     assert met["Mitsuba at the training 64 spp"] and met["Mitsuba at equal DSSIM"]
+    assert met["Mitsuba at the training 64 spp (int8 graph)"]
+    assert met["int8 graph (complex)"]  # 0.041 <= 1.05 x 0.040
     # Variants that did not run, and the diffuse comparison without its data, are not rows.
     assert "single_decoder" not in met and "real_shading" not in met
+
+
+def test_an_int8_graph_that_costs_quality_misses():
+    metrics = _metrics([("complex", "ndr", 0.05), ("complex", "shading_input", 0.1)])
+    table = summary.targets(metrics, _equal(0.045), minutes=15.0, cores=2).set_index("subject")
+    assert not table.loc["int8 graph (complex)", "met"]
+    assert table.loc["int8 graph (complex)", "measured"] == pytest.approx(0.045 / 0.040)
 
 
 def test_missed_stage_budget():

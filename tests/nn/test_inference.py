@@ -8,6 +8,7 @@ from neurender.nn.inference import (
     export_onnx,
     fold_batch_norms,
     prepare_for_inference,
+    quantize_convolutions,
 )
 from neurender.nn.unet import ResUNet
 
@@ -125,3 +126,47 @@ def test_an_input_the_graph_ignores_stays_an_input_in_its_place(tmp_path):
     assert network.inputs == ["a", "unused", "b"]
     x = [np.random.default_rng(0).random((4, n), dtype=np.float32) for n in (3, 5, 3)]
     np.testing.assert_allclose(network(*x), x[0] * 2 + x[2], rtol=1e-6)
+
+
+def _int8_unet(tmp_path, exported, calibration_batches=16):
+    """The exported U-Net quantized on random batches like the inputs it is tested on."""
+    _, path = exported
+    rng = np.random.default_rng(1)
+    feeds = [
+        {"x": rng.standard_normal((2, 6, 16, 16), np.float32)} for _ in range(calibration_batches)
+    ]
+    target = tmp_path / "unet.int8.onnx"
+    quantize_convolutions(path, target, feeds)
+    return target
+
+
+def test_int8_graph_has_int8_weights_and_stays_close_to_the_float_graph(exported, tmp_path):
+    import onnx
+
+    model, path = exported
+    target = _int8_unet(tmp_path, exported)
+    graph = onnx.load(str(target)).graph
+    convolutions = sum(n.op_type == "Conv" for n in onnx.load(str(path)).graph.node)
+    int8 = [i for i in graph.initializer if i.data_type == onnx.TensorProto.INT8]
+    kernels = [i for i in int8 if len(i.dims) == 4]  # zero points are int8 vectors
+    assert convolutions > 0 and len(kernels) == convolutions  # one per convolution
+    x = np.random.default_rng(2).standard_normal((3, 6, 16, 16), np.float32)
+    with torch.no_grad():
+        expected = model(torch.from_numpy(x)).numpy()
+    got = OnnxNetwork(target)(x)
+    # An approximation, and a close one: on average within one uint8 step of the output range
+    # (errors add up over the U-Net's eleven layers; the largest where an input lies beyond
+    # the calibrated range and is clipped).
+    span = expected.max() - expected.min()
+    error = np.abs(got - expected)
+    assert 0 < error.max() <= 0.04 * span
+    assert error.mean() <= span / 255
+
+
+def test_int8_needs_calibration_and_leaves_only_its_file(exported, tmp_path, monkeypatch):
+    _, path = exported
+    monkeypatch.chdir(tmp_path)  # the quantizer's helpers write scratch files here
+    with pytest.raises(ValueError, match="unet.onnx.*no calibration"):
+        quantize_convolutions(path, tmp_path / "none.onnx", [])
+    _int8_unet(tmp_path, exported)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["unet.int8.onnx"]

@@ -164,6 +164,7 @@ rule ndr_equal_quality:
             labels={"figure": "equal quality"},
         ),
         graph="results/ndr/onnx/ndr_shipped.onnx",
+        graph_int8="results/ndr/onnx/ndr_shipped_int8.onnx",
     log:
         "results/logs/ndr_equal_quality/ndr_equal_quality.log",
     benchmark:

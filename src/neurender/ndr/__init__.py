@@ -41,6 +41,10 @@ TRAINED_ON = {"complex": "complex", "diffuse": "diffuse", "sunlit": "complex"}
 #: after one uncounted call; :mod:`neurender.ndr.equal_quality`).
 EQUAL_QUALITY_REPEATS = 3
 
+#: Training samples whose activations set the int8 shipped graph's ranges (fewer where the
+#: split has fewer; :mod:`neurender.ndr.graph_scores`).
+CALIBRATION_SAMPLES = 16
+
 #: The variants trained and tested on the diffuse, fixed-illumination data.
 DIFFUSE_VARIANTS = tuple(name for name, v in VARIANTS.items() if v.data == "diffuse")
 

@@ -29,7 +29,6 @@ lighting and G-buffers are not counted.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from collections.abc import Sequence
 from types import ModuleType
@@ -39,14 +38,13 @@ import pandas as pd
 import torch
 from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
-from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, environments, prefiltered, render
+from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, render
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import score
+from neurender.ndr.graph_scores import graph_inputs
 from neurender.ndr.model import NDRModel, compose
 from neurender.ndr.objects import ProceduralObject
-from neurender.ndr.shipped import INPUTS as SHIPPED_INPUTS
-from neurender.ndr.shipped import ShippedNDR, gbuffer_groups
-from neurender.nn.inference import OnnxNetwork, export_onnx
+from neurender.nn.inference import OnnxNetwork
 from neurender.plots import plt, save_figure
 from neurender.tables import tidy_rows
 from neurender.timing import timed
@@ -55,7 +53,12 @@ from neurender.timing import timed
 METRIC = "dssim_I_R"
 MITSUBA = "mitsuba"
 NETWORK = "ndr"
+NETWORK_INT8 = "ndr_int8"
 SPLIT = "equal quality"
+#: The ``split`` of the shipped graphs' scores on whole test splits.
+GRAPH_SPLIT = "test (shipped graph)"
+#: What each NDR model of the table is.
+GRAPH_LABELS = {NETWORK: "NDR", NETWORK_INT8: "NDR, int8 graph"}
 #: What a network's ``equal_quality_speedup`` is: the sweep's pick, or a bound on it.
 WITHIN, LOWER, UPPER = "within the sweep", "lower bound", "upper bound"
 BOUNDS = {
@@ -149,62 +152,29 @@ def score_sweep(
     return pd.DataFrame(rows)
 
 
-@torch.no_grad()
-def shipped_inputs(
-    cfg: dict, model: NDRModel, scene: Scene, sample: dict[str, torch.Tensor]
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-    """The shipped graph's inputs (:mod:`neurender.ndr.shipped`) of one test ``sample``
-    (a dataset item, ``(C, H, W)`` per group; read without mask erosion, the graph gives
-    the network's output on the stored sample exactly as a renderer's raw mask would) under
-    its scene's map: the G-buffers ``(1, C, H, W)``, the map's 5-band SH ``(1, 75)``, its
-    prefiltered copies ``(1, L, h, 2h, 3)`` and lights ``(1, K, 7)``, made as the data
-    stage makes them for ``prefiltered``."""
-    gbuffers = torch.cat([sample[g][None] for g in gbuffer_groups(model)], 1)
-    small = environments.resize_latlong(scene.environment, cfg["coarse_height"])
-    coefficients, maps, lights = prefiltered.lighting(scene.environment, small)
-    return (
-        gbuffers.float(),
-        coefficients.reshape(1, -1).float(),
-        maps[None].float(),
-        lights[None].float(),
-    )
-
-
-def export_shipped(
-    cfg: dict, model: NDRModel, inputs: tuple[torch.Tensor, ...], path: str
-) -> float:
-    """Write ``model`` with the prefiltered coarse shading as one ONNX graph
-    (:class:`neurender.ndr.shipped.ShippedNDR`: G-buffers, SH, maps and lights in, ``I_R``
-    out),
-    checked against PyTorch on ``inputs`` (a batch of two copies); the largest
-    difference."""
-    cpu = copy.deepcopy(model).cpu().eval()  # the model may stay on the GPU for its timing
-    shipped = ShippedNDR(cpu, cfg["camera_distance"], cfg["fov"], cfg["width"])
-    pair = tuple(torch.cat([t, t]) for t in inputs)  # a batch of one would fix the batch axis
-    return export_onnx(shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=SHIPPED_INPUTS)
-
-
 def network_milliseconds(
     cfg: dict,
     model: NDRModel,
     scenes: Sequence[Scene],
     test: NDRDataset,
     device: torch.device,
-    graph: str,
+    graphs: dict[str, str],
     threads: int,
     repeats: int = EQUAL_QUALITY_REPEATS,
 ) -> dict[str, float]:
     """NDR's milliseconds per frame, means over ``scenes`` of per-sample medians:
     ``coarse_shading_ms`` (:func:`neurender.ndr.data.coarse_maps` from the map's lighting,
     made once per map and not counted), ``network_ms`` (``model`` on the sample of
-    ``test``, batch 1, on ``device``), ``shipped_graph_ms`` (the one-graph NDR exported to
-    ``graph`` by :func:`export_shipped`, ONNX Runtime on ``threads`` threads) and
-    ``ms_per_frame``, NDR's frame: the shipped graph when the data's coarse shading is
-    ``prefiltered`` (the graph computes exactly what the network was trained on), else
+    ``test``, batch 1, on ``device``), ``shipped_graph_ms`` and ``shipped_int8_graph_ms``
+    (the one-graph NDR files ``graphs["float32"]`` and ``graphs["int8"]``,
+    :mod:`neurender.ndr.graph_scores`, by ONNX Runtime on ``threads`` threads) and
+    ``ms_per_frame``, NDR's float32 frame: the shipped graph when the data's coarse shading
+    is ``prefiltered`` (the graph computes exactly what the network was trained on), else
     the importance-sampled shading plus the network (the graph's shading would not be the
     training input; its time is then for comparison only)."""
     view = render.camera(cfg["camera_distance"], cfg["fov"])
-    coarse, network, shipped = [], [], []
+    sessions = {k: OnnxNetwork(graphs[k], threads) for k in ("float32", "int8")}
+    coarse, network, shipped = [], [], {k: [] for k in sessions}
     for scene in scenes:
         g = render.g_buffers(scene.obj, view, cfg["width"])
         lighting = data.coarse_lighting(cfg, scene.environment)
@@ -223,15 +193,13 @@ def network_milliseconds(
         sample = test[scene.index]
         batch = {k: v[None].to(device) for k, v in sample.items()}
         network.append(timed(model, batch, repeats=repeats, warmup=1)[1])
-        inputs = shipped_inputs(cfg, model, scene, sample)
-        if not shipped:
-            export_shipped(cfg, model, inputs, graph)
-            session = OnnxNetwork(graph, threads)
-        arrays = [x.numpy() for x in inputs]
-        shipped.append(timed(session, *arrays, repeats=repeats, warmup=1)[1])
+        arrays = [x.numpy() for x in graph_inputs(cfg, model, "test", scene.index, sample)]
+        for k, session in sessions.items():
+            shipped[k].append(timed(session, *arrays, repeats=repeats, warmup=1)[1])
     ms = {"coarse_shading_ms": 1e3 * float(np.mean(coarse))}
     ms["network_ms"] = 1e3 * float(np.mean(network))
-    ms["shipped_graph_ms"] = 1e3 * float(np.mean(shipped))
+    ms["shipped_graph_ms"] = 1e3 * float(np.mean(shipped["float32"]))
+    ms["shipped_int8_graph_ms"] = 1e3 * float(np.mean(shipped["int8"]))
     if cfg["coarse_shading"] == "prefiltered":
         return {**ms, "ms_per_frame": ms["shipped_graph_ms"]}
     return {**ms, "ms_per_frame": ms["coarse_shading_ms"] + ms["network_ms"]}
@@ -280,12 +248,13 @@ def label(spp: int | None) -> str:
 
 
 def table(
-    scores: pd.DataFrame, target: float, network: dict[str, float], training_spp: int
+    scores: pd.DataFrame, networks: dict[str, dict[str, float]], training_spp: int
 ) -> pd.DataFrame:
     """Tidy rows (key columns ``setting``, ``bound``): per sample count (model
-    :data:`MITSUBA`, setting ``<spp> spp``) its ``ms_per_frame``, ``scene_ms`` and DSSIM; NDR's
-    (``network``: :func:`network_milliseconds`; its DSSIM ``target``) times and DSSIM,
-    ``training_spp``, ``speedup_vs_training_spp`` (Mitsuba at ``training_spp`` over NDR's frame),
+    :data:`MITSUBA`, setting ``<spp> spp``) its ``ms_per_frame``, ``scene_ms`` and DSSIM; per
+    NDR graph (``networks``: model name, :data:`NETWORK` or :data:`NETWORK_INT8`, -> its
+    times, at least ``ms_per_frame``, and its DSSIM) those values, ``training_spp``,
+    ``speedup_vs_training_spp`` (Mitsuba at ``training_spp`` over the graph's frame),
     ``equal_quality_spp`` (NaN where none), ``equal_quality_mitsuba_ms`` and
     ``equal_quality_speedup``; its setting the pick's (``none``), its bound the pick's
     (:data:`BOUNDS`; the Mitsuba rows' ``measured``)."""
@@ -296,31 +265,32 @@ def table(
         rows += tidy_rows(
             "ndr", dataset, MITSUBA, SPLIT, values, setting=label(r.spp), bound="measured"
         )
-    chosen = pick(scores, target)
     training = scores.loc[scores["spp"] == training_spp, "ms_per_frame"]
     if training.empty:
         raise ValueError(f"the sweep has no row at the training spp {training_spp}")
-    ms = network["ms_per_frame"]
-    values = {
-        **network,
-        METRIC: target,
-        "training_spp": training_spp,
-        "speedup_vs_training_spp": float(training.iloc[0]) / ms,
-        "equal_quality_spp": np.nan if chosen.spp is None else chosen.spp,
-        "equal_quality_mitsuba_ms": chosen.ms_per_frame,
-        "equal_quality_speedup": chosen.ms_per_frame / ms,
-    }
-    setting = label(chosen.spp)
-    rows += tidy_rows("ndr", dataset, NETWORK, SPLIT, values, setting=setting, bound=chosen.bound)
+    for name, network in networks.items():
+        chosen = pick(scores, network[METRIC])
+        ms = network["ms_per_frame"]
+        values = {
+            **network,
+            "training_spp": training_spp,
+            "speedup_vs_training_spp": float(training.iloc[0]) / ms,
+            "equal_quality_spp": np.nan if chosen.spp is None else chosen.spp,
+            "equal_quality_mitsuba_ms": chosen.ms_per_frame,
+            "equal_quality_speedup": chosen.ms_per_frame / ms,
+        }
+        setting, bound = label(chosen.spp), chosen.bound
+        rows += tidy_rows("ndr", dataset, name, SPLIT, values, setting=setting, bound=bound)
     return pd.DataFrame(rows)
 
 
 def quality_figure(
-    scores: pd.DataFrame, target: float, network: dict[str, float], training_spp: int, path: str
+    scores: pd.DataFrame, networks: dict[str, dict[str, float]], training_spp: int, path: str
 ) -> None:
     """DSSIM of ``I_R`` against milliseconds per frame, both on log axes: Mitsuba per
-    sample count (labelled, the training count ringed), NDR a star on the dashed line of
-    its DSSIM, the picked render crossed; the title states both speed-ups."""
+    sample count (labelled, the training count ringed), each NDR graph of ``networks`` (as
+    :func:`table`'s) a star on the dashed line of its DSSIM, its picked render crossed; the
+    title states the speed-ups."""
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     ax.plot(scores["ms_per_frame"], scores[METRIC], "o-", ms=5, label="Mitsuba")
     for r in scores.itertuples():
@@ -340,20 +310,28 @@ def quality_figure(
         edgecolors="k",
         label=f"Mitsuba at the training {training_spp} spp",
     )
-    ms = network["ms_per_frame"]
-    ax.scatter([ms], [target], marker="*", s=220, color="C3", zorder=3, label="NDR")
-    ax.axhline(target, color="C3", ls="--", lw=0.8)
-    chosen = pick(scores, target)
-    if chosen.spp is not None:
-        row = scores[scores["spp"] == chosen.spp].iloc[0]
-        ax.scatter(
-            [row["ms_per_frame"]],
-            [row[METRIC]],
-            marker="x",
-            s=90,
-            color="C3",
-            zorder=3,
-            label=f"cheapest of NDR's DSSIM ({chosen.spp} spp)",
+    titles = []
+    for (name, network), colour in zip(networks.items(), ("C3", "C2"), strict=False):
+        ms, target = network["ms_per_frame"], network[METRIC]
+        graph = GRAPH_LABELS[name]
+        ax.scatter([ms], [target], marker="*", s=220, color=colour, zorder=3, label=graph)
+        ax.axhline(target, color=colour, ls="--", lw=0.8)
+        chosen = pick(scores, target)
+        if chosen.spp is not None:
+            row = scores[scores["spp"] == chosen.spp].iloc[0]
+            ax.scatter(
+                [row["ms_per_frame"]],
+                [row[METRIC]],
+                marker="x",
+                s=90,
+                color=colour,
+                zorder=3,
+                label=f"cheapest of its DSSIM ({chosen.spp} spp)",
+            )
+        ratio, equal = float(train["ms_per_frame"].iloc[0]) / ms, chosen.ms_per_frame / ms
+        note = "" if chosen.bound == WITHIN else f" ({chosen.bound})"
+        titles.append(
+            f"{graph} {ratio:.2g}x at {training_spp} spp, {equal:.2g}x at equal DSSIM{note}"
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -365,13 +343,19 @@ def quality_figure(
     ax.set_ylabel(f"{METRIC} (lower is better)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
-    ratio = float(train["ms_per_frame"].iloc[0]) / ms
-    equal = chosen.ms_per_frame / ms
-    note = "" if chosen.bound == WITHIN else f" ({chosen.bound})"
-    ax.set_title(
-        f"NDR {ratio:.2g}x faster than Mitsuba at {training_spp} spp; "
-        f"{equal:.2g}x at equal DSSIM{note}",
-        fontsize=9,
-    )
+    ax.set_title("faster than Mitsuba: " + "; ".join(titles), fontsize=8, wrap=True)
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def graph_table(per_sample: dict[tuple[str, str], dict[str, torch.Tensor]]) -> pd.DataFrame:
+    """Tidy rows (split :data:`GRAPH_SPLIT`) of the shipped graphs' means on whole test
+    splits: ``per_sample`` maps (dataset label, model name) to per-sample scores ``(N,)``
+    (:func:`neurender.ndr.graph_scores.score_graph`)."""
+    rows = []
+    for (dataset, name), values in per_sample.items():
+        means = {k: float(v.mean()) for k, v in values.items()}
+        rows += tidy_rows(
+            "ndr", dataset, name, GRAPH_SPLIT, means, setting="all samples", bound="measured"
+        )
+    return pd.DataFrame(rows)

@@ -19,6 +19,8 @@ from neurender.deployment import deployment_table
 from neurender.devices import resolve_device
 from neurender.mitsuba_setup import require_mitsuba
 from neurender.ndr import (
+    CALIBRATION_SAMPLES,
+    DATASETS,
     KINDS,
     VARIANTS,
     data,
@@ -26,6 +28,7 @@ from neurender.ndr import (
     equal_quality,
     figures,
     furnace,
+    graph_scores,
     pool,
     relight,
     split_name,
@@ -37,6 +40,7 @@ from neurender.ndr.evaluate import score_split
 from neurender.ndr.model import SHADING_INPUT, load_model
 from neurender.ndr.training import train_variant
 from neurender.ndr.viewer import relight_view
+from neurender.nn.inference import OnnxNetwork
 from neurender.tables import target_table
 
 log = logging.getLogger(__name__)
@@ -147,10 +151,13 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """NDR (``checkpoint``) against Mitsuba at every sample count of ``equal_quality_spp``
     and the training ``spp`` on the first ``equal_quality_samples`` test samples
-    (:mod:`neurender.ndr.equal_quality`): NDR's DSSIM from the evaluation's per-sample
-    ``samples``, Mitsuba's against the test split's references; Mitsuba and NDR timed on
-    ``threads`` threads in this process. The table, the figure and the shipped one-graph
-    NDR (``graph``: coarse shading and network in one ONNX file)."""
+    (:mod:`neurender.ndr.equal_quality`), Mitsuba and NDR timed on ``threads`` threads in
+    this process. The shipped one-graph NDR (coarse shading and network in one ONNX file)
+    in float32 (``graph``) and in int8 (``graph_int8``, calibrated on the first training
+    samples), each scored on every test split of the complex-trained networks
+    (:mod:`neurender.ndr.graph_scores`). NDR's DSSIM: the evaluation's per-sample
+    ``samples`` for the float32 network, the int8 graph's own scores for it; Mitsuba's
+    against the test split's references. The table and the figure."""
     mi, dr = require_mitsuba(params["device"])
     dr.set_thread_count(threads)
     device = resolve_device(params["device"], threads)
@@ -161,17 +168,43 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
             f"ndr.equal_quality_samples = {count}: the test split {inputs['test_manifest']} "
             f"has {len(test)} samples"
         )
+    model = load_model(inputs["checkpoint"], device)
+    graphs = {"float32": outputs["graph"], "int8": outputs["graph_int8"]}
+    graph_scores.export_float32(params, model, test, graphs["float32"])
+    train = NDRDataset.from_files(_split_files(inputs, "train"), 0, CALIBRATION_SAMPLES)
+    graph_scores.export_int8(params, model, train, graphs["float32"], graphs["int8"])
+    names = {equal_quality.NETWORK: "float32", equal_quality.NETWORK_INT8: "int8"}
+    scored = {}
+    for kind in ("complex", "sunlit"):
+        split = split_name(kind, "test")
+        if f"{split}_dir" not in inputs:
+            continue
+        raw = NDRDataset.from_files(_split_files(inputs, split), 0)  # the stored masks
+        for name, precision in names.items():
+            session = OnnxNetwork(graphs[precision], threads)
+            scored[DATASETS[kind], name] = graph_scores.score_graph(
+                params, model, session, split, raw, params["mask_erosion"]
+            )
     scenes = [equal_quality.scene_of(params, i) for i in range(count)]
     spps = equal_quality.sweep(params["equal_quality_spp"], params["spp"])
     scores = equal_quality.score_sweep(mi, params, scenes, test.buffers, spps)
     per_sample = io.read_csv(inputs["samples"], ["dataset", "model", "sample", "metric", "value"])
-    target = equal_quality.network_dssim(per_sample, range(count))
-    model = load_model(inputs["checkpoint"], device)
-    network = equal_quality.network_milliseconds(
-        params, model, scenes, test, device, outputs["graph"], threads
-    )
-    io.write_csv(outputs["table"], equal_quality.table(scores, target, network, params["spp"]))
-    equal_quality.quality_figure(scores, target, network, params["spp"], outputs["figure"])
+    metric = equal_quality.METRIC
+    ms = equal_quality.network_milliseconds(params, model, scenes, test, device, graphs, threads)
+    int8_dssim = scored[DATASETS["complex"], equal_quality.NETWORK_INT8][metric][:count]
+    networks = {
+        equal_quality.NETWORK: {
+            **ms,
+            metric: equal_quality.network_dssim(per_sample, range(count)),
+        },
+        equal_quality.NETWORK_INT8: {
+            "ms_per_frame": ms["shipped_int8_graph_ms"],
+            metric: float(int8_dssim.mean()),
+        },
+    }
+    table = equal_quality.table(scores, networks, params["spp"])
+    io.write_csv(outputs["table"], pd.concat([table, equal_quality.graph_table(scored)]))
+    equal_quality.quality_figure(scores, networks, params["spp"], outputs["figure"])
 
 
 def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

@@ -128,6 +128,7 @@ class NDRModel(torch.nn.Module):
                 decoder_scale=variant.decoder_scale,
                 sh_features=SH_FEATURES if variant.light else 0,
                 sh_hidden=sh_hidden,
+                conv_before_upsample=variant.conv_before_upsample,
             )
 
     def tone_mapped(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:

@@ -92,37 +92,65 @@ def _beats(ndr: float, name: str, other: float) -> Target:
 
 
 def speed_targets(equal: pd.DataFrame) -> list[Target]:
-    """NDR end to end against Mitsuba (``equal_quality.csv``, :mod:`neurender.ndr.
-    equal_quality`): at the training spp, and at equal DSSIM of ``I_R``, where a lower
-    bound that reaches the threshold is met and an upper bound never is (NDR is then worse
-    than the sweep's fewest samples)."""
-    ndr = equal[(equal["model"] == eq.NETWORK) & (equal["split"] == eq.SPLIT)]
-    value = ndr.set_index("metric")["value"]
-    spp = int(value["training_spp"])
-    least = threshold("ndr", "training_spp_speedup")
-    ratio = float(value["speedup_vs_training_spp"])
-    rows = [
-        Target(
-            f"Mitsuba at the training {spp} spp",
-            f"NDR end to end (coarse shading + network) at least {least:g}x faster "
-            "(measured: ratio)",
-            ratio,
-            ratio >= least,
+    """Each NDR graph of the equal-quality table (``equal_quality.csv``, :mod:`neurender.ndr.
+    equal_quality`; NDR, and its int8 graph where the table has it) end to end against
+    Mitsuba: at the training spp, and at equal DSSIM of ``I_R``, where a lower bound that
+    reaches the threshold is met and an upper bound never is (the graph is then worse than
+    the sweep's fewest samples)."""
+    rows = []
+    for model, suffix in ((eq.NETWORK, ""), (eq.NETWORK_INT8, " (int8 graph)")):
+        graph = equal[(equal["model"] == model) & (equal["split"] == eq.SPLIT)]
+        if graph.empty:
+            continue
+        what = eq.GRAPH_LABELS[model]
+        value = graph.set_index("metric")["value"]
+        spp = int(value["training_spp"])
+        least = threshold("ndr", "training_spp_speedup")
+        ratio = float(value["speedup_vs_training_spp"])
+        rows.append(
+            Target(
+                f"Mitsuba at the training {spp} spp{suffix}",
+                f"{what} end to end (coarse shading + network) at least {least:g}x faster "
+                "(measured: ratio)",
+                ratio,
+                ratio >= least,
+            )
         )
-    ]
-    least = threshold("ndr", "equal_quality_speedup")
-    bound, setting = ndr["bound"].iloc[0], ndr["setting"].iloc[0]
-    which = setting if bound == eq.WITHIN else f"{bound}: {eq.BOUNDS[bound]}"
-    ratio = float(value["equal_quality_speedup"])
-    rows.append(
-        Target(
-            "Mitsuba at equal DSSIM",
-            f"NDR end to end at least {least:g}x faster than the cheapest Mitsuba render of "
-            f"its DSSIM(I_R) ({which}) (measured: ratio)",
-            ratio,
-            ratio >= least and bound != eq.UPPER,
+        least = threshold("ndr", "equal_quality_speedup")
+        bound, setting = graph["bound"].iloc[0], graph["setting"].iloc[0]
+        which = setting if bound == eq.WITHIN else f"{bound}: {eq.BOUNDS[bound]}"
+        ratio = float(value["equal_quality_speedup"])
+        rows.append(
+            Target(
+                f"Mitsuba at equal DSSIM{suffix}",
+                f"{what} end to end at least {least:g}x faster than the cheapest Mitsuba "
+                f"render of its DSSIM(I_R) ({which}) (measured: ratio)",
+                ratio,
+                ratio >= least and bound != eq.UPPER,
+            )
         )
-    )
+    return rows
+
+
+def int8_targets(equal: pd.DataFrame) -> list[Target]:
+    """The int8 graph's DSSIM of ``I_R`` on each whole test split at most
+    ``int8_dssim_ratio`` times the float32 graph's (``equal_quality.csv``, split
+    :data:`neurender.ndr.equal_quality.GRAPH_SPLIT`)."""
+    scores = equal[(equal["split"] == eq.GRAPH_SPLIT) & (equal["metric"] == eq.METRIC)]
+    most = threshold("ndr", "int8_dssim_ratio")
+    rows = []
+    for dataset, part in scores.groupby("dataset", sort=False):
+        value = part.set_index("model")["value"]
+        ratio = float(value[eq.NETWORK_INT8] / value[eq.NETWORK])
+        rows.append(
+            Target(
+                f"int8 graph ({dataset})",
+                f"DSSIM(I_R) of the int8 graph at most {most:g} x the float32 graph's "
+                f"({value[eq.NETWORK]:.4f}) (measured: ratio)",
+                ratio,
+                ratio <= most,
+            )
+        )
     return rows
 
 
@@ -130,7 +158,8 @@ def targets(metrics: pd.DataFrame, equal: pd.DataFrame, minutes: float, cores: i
     """The default config's targets on the complex test data (NDR against the shading
     input, every ablation and baseline that ran, and the noise floor), NDR against Real
     Shading on the diffuse data, NDR's speed against Mitsuba (:func:`speed_targets` of
-    ``equal``, the equal-quality table) and the stage time, each stated as met or missed."""
+    ``equal``, the equal-quality table), the int8 graph's quality (:func:`int8_targets`)
+    and the stage time, each stated as met or missed."""
 
     def dssim(model: str, dataset: str = "complex") -> float:
         return lookup(metrics, model=model, metric="dssim_I_R", dataset=dataset)
@@ -179,7 +208,7 @@ def targets(metrics: pd.DataFrame, equal: pd.DataFrame, minutes: float, cores: i
                 diffuse_ndr < real,
             )
         )
-    rows += speed_targets(equal)
+    rows += speed_targets(equal) + int8_targets(equal)
     budget = threshold("ndr", "stage_minutes")
     rows.append(
         Target(

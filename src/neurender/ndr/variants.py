@@ -24,7 +24,9 @@ class Variant:
     each when ``decoders == len(targets)``); ``light``: takes the SH vector; ``residual``:
     may predict a correction to the coarse shading (see :mod:`neurender.ndr.model`);
     ``data``: ``complex`` or ``diffuse`` dataset; ``arch``: ``ndr`` (:mod:`neurender.nn.ndr`)
-    or ``pix2pix`` (:mod:`neurender.nn.pix2pix`). Every variant trains for the same
+    or ``pix2pix`` (:mod:`neurender.nn.pix2pix`); ``conv_before_upsample``: the NDR
+    decoders convolve before they upsample (ours, and our ablations; NDR as published and
+    Real Shading upsample first, see :mod:`neurender.nn.ndr`). Every variant trains for the same
     ``ndr_model.epochs`` (the comparison is at an equal budget).
     """
 
@@ -36,6 +38,7 @@ class Variant:
     residual: bool = True
     data: str = "complex"
     arch: str = "ndr"
+    conv_before_upsample: bool = True
     description: str = ""
 
     @property
@@ -58,7 +61,9 @@ VARIANTS: dict[str, Variant] = {
         _NDR_INPUTS,
         description="NDR (two decoders; ours: residual on S_D, S_S)",
     ),
-    "ndr_direct": Variant(_NDR_INPUTS, residual=False, description="NDR as published"),
+    "ndr_direct": Variant(
+        _NDR_INPUTS, residual=False, conv_before_upsample=False, description="NDR as published"
+    ),
     "single_decoder": Variant(
         _NDR_INPUTS, decoders=1, decoder_scale=2, description="Decoder separation ablation"
     ),
@@ -93,6 +98,7 @@ VARIANTS: dict[str, Variant] = {
         light=False,
         residual=False,
         data="diffuse",
+        conv_before_upsample=False,
         description="Real Shading (Deep Shading, Nalbach et al. 2017)",
     ),
 }

@@ -17,8 +17,9 @@ import contextlib
 import copy
 import io
 import logging
+import tempfile
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -182,6 +183,58 @@ def _finish(path: Path, metadata: dict[str, str]) -> None:
     for key, value in metadata.items():
         model.metadata_props.add(key=key, value=value)
     onnx.save(model, str(path))
+
+
+#: Operators the int8 graphs compute in int8 (:func:`quantize_convolutions`): the
+#: convolutions, and the ReLUs and bilinear upsamplings between them, which then pass int8
+#: tensors on instead of converting to float32 and back (the shipped NDR graph, untrained,
+#: one thread of an AMD EPYC, best of 7 rounds: float32 9.7 ms, the convolutions alone in
+#: int8 5.4 ms, these 4.9 ms; the same largest difference from float32).
+#: Concatenations stay float32: one scale for inputs of different ranges costs accuracy
+#: (0.15 against 0.0009 largest difference on the same graph).
+INT8_OPERATORS = ("Conv", "Relu", "Resize")
+
+
+class _Feeds:
+    """ONNX Runtime's calibration reader over ``feeds`` (input name -> array), once."""
+
+    def __init__(self, feeds: Sequence[dict[str, np.ndarray]]):
+        self.feeds = iter(feeds)
+
+    def get_next(self) -> dict[str, np.ndarray] | None:
+        return next(self.feeds, None)
+
+
+def quantize_convolutions(
+    source: str | Path, target: str | Path, calibration: Sequence[dict[str, np.ndarray]]
+) -> None:
+    """Write ``source`` (an ONNX file of :func:`export_onnx`) to ``target`` with its
+    :data:`INT8_OPERATORS` in int8, by ONNX Runtime's static quantizer in QDQ form: weights
+    int8 per output channel, activations uint8 with ranges (min and max) observed on the
+    ``calibration`` feeds (each input name -> float32 array, batch first); every other
+    operator stays float32. The int8 file computes an approximation: a caller measures its
+    quality, as it measures the float32 graph's."""
+    from onnxruntime.quantization import QuantFormat, QuantType, quant_pre_process, quantize_static
+
+    if not calibration:
+        raise ValueError(f"quantize_convolutions({source}): no calibration feeds")
+    with tempfile.TemporaryDirectory(prefix="neurender-int8-") as scratch:
+        prepared = Path(scratch) / "prepared.onnx"
+        # ONNX's shape inference only: the symbolic one cannot follow gathers such as the
+        # NDR shading's, and on failure it leaves its temporary files in the working folder.
+        quant_pre_process(str(source), str(prepared), skip_symbolic_shape=True)
+        with atomic_path(target) as tmp:
+            quantize_static(
+                str(prepared),
+                str(tmp),
+                _Feeds(calibration),
+                quant_format=QuantFormat.QDQ,
+                per_channel=True,
+                activation_type=QuantType.QUInt8,
+                weight_type=QuantType.QInt8,
+                op_types_to_quantize=list(INT8_OPERATORS),
+            )
+    log.info("int8 graph %s from %s (%d calibration feeds)", target, source, len(calibration))
 
 
 class OnnxNetwork:

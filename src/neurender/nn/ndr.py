@@ -4,7 +4,10 @@ One encoder over the screen-space buffers; the light's SH vector passes through 
 connected layers and is tiled and concatenated at every bottleneck position; one or more
 parallel decoders share the bottleneck and the skip connections. Each level is two
 conv 3x3 + batch norm + ReLU; downsampling by stride-2 convolution, upsampling bilinear
-followed by a convolution. Outputs are logits (the caller applies the sigmoid, possibly
+followed by a convolution (the paper's), or the convolution first, at the coarser level
+(``conv_before_upsample``: a quarter of that convolution's work and the same receptive
+field; the shipped NDR graph's full-resolution convolutions are most of its time). Outputs
+are logits (the caller applies the sigmoid, possibly
 after adding a prior). Tensors are ``(B, C, H, W)``; H and W divisible by
 ``2 ** (len(widths) - 1)``.
 """
@@ -28,22 +31,26 @@ class Decoder(nn.Module):
         skip_widths: encoder widths, finest first (the skips it concatenates).
         bottleneck: channels of the bottleneck tensor it starts from.
         widths: its own channels per level, finest first (``len(skip_widths) - 1`` used).
+        conv_before_upsample: each level's first convolution before the upsampling, at
+            the coarser resolution (else after it, as the paper's).
     """
 
     def __init__(
-        self, skip_widths: list[int], bottleneck: int, widths: list[int], out_channels: int
+        self,
+        skip_widths: list[int],
+        bottleneck: int,
+        widths: list[int],
+        out_channels: int,
+        conv_before_upsample: bool = False,
     ):
         super().__init__()
         self.ups = nn.ModuleList()
         self.blocks = nn.ModuleList()
         cin = bottleneck
         for level in range(len(skip_widths) - 2, -1, -1):
-            self.ups.append(
-                nn.Sequential(
-                    nn.Upsample(scale_factor=2, mode="bilinear", align_corners=False),
-                    conv_bn_relu(cin, widths[level]),
-                )
-            )
+            up = nn.Upsample(scale_factor=2, mode="bilinear", align_corners=False)
+            conv = conv_bn_relu(cin, widths[level])
+            self.ups.append(nn.Sequential(*((conv, up) if conv_before_upsample else (up, conv))))
             self.blocks.append(double_conv(widths[level] + skip_widths[level], widths[level]))
             cin = widths[level]
         self.head = nn.Conv2d(cin, out_channels, 1)
@@ -67,6 +74,8 @@ class NDRNet(nn.Module):
         decoder_scale: decoder width multiplier (the single-decoder ablation uses 2).
         sh_features: light vector length (75 = 5-band SH x RGB), 0 for none.
         sh_hidden: width of the two fully connected layers.
+        conv_before_upsample: the decoders' upsampling after each level's first
+            convolution (see the module docstring; the paper's order when False).
 
     ``forward(x, light)`` returns ``(B, decoders * out_channels, H, W)`` logits, decoder
     outputs concatenated in order.
@@ -81,6 +90,7 @@ class NDRNet(nn.Module):
         decoder_scale: int = 1,
         sh_features: int = 75,
         sh_hidden: int = 128,
+        conv_before_upsample: bool = False,
     ):
         super().__init__()
         if len(widths) < 2:
@@ -112,6 +122,7 @@ class NDRNet(nn.Module):
                 widths[-1] * decoder_scale,
                 [w * decoder_scale for w in widths],
                 out_channels,
+                conv_before_upsample,
             )
             for _ in range(decoders)
         )

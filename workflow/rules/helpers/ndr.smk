@@ -217,9 +217,13 @@ def ndr_deploy_inputs(wildcards):
 
 
 def ndr_equal_quality_inputs(wildcards):
-    """The test split (its samples are rendered again) and the user's maps (they light
-    some of them)."""
-    files = {f"test_{k}": p for k, p in ndr_split_files("test").items()}
+    """The test split (its samples are rendered again), the real-world-like test split
+    where it is made (the shipped graphs are scored on both), the training split (the
+    int8 graph's calibration) and the user's maps (they light some of them)."""
+    splits = ["train", "test"] + [s for s in ndr_splits() if s == NDR_SUNLIT_SPLIT]
+    files = {
+        f"{split}_{k}": p for split in splits for k, p in ndr_split_files(split).items()
+    }
     return {**ndr_user_probe_files(wildcards), **files}
 
 

@@ -1,0 +1,99 @@
+"""The shipped one-graph NDR (:mod:`neurender.ndr.shipped`) as files ONNX Runtime runs, in
+float32 and in int8, and scored on whole test splits as the evaluation scores the networks.
+
+A sample's graph inputs are remade from the split's stored G-buffers and its map, which
+:func:`neurender.ndr.data.sample_scene` draws again from the sample's seed (the map's SH,
+prefiltered copies and lights, made once per map as a renderer would). The int8 graph is
+the float32 file with its convolutions (and the ReLUs and upsamplings between them) in
+int8 (:func:`neurender.nn.inference.quantize_convolutions`), their activation ranges
+calibrated on the first :data:`CALIBRATION_SAMPLES` training samples, never on a test
+sample. Scores: DSSIM and L2 of ``I_R``, Reinhard tone-mapped, within the eroded mask,
+against the clean references (:func:`neurender.ndr.evaluate.score`).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import torch
+
+from neurender.ndr import CALIBRATION_SAMPLES, data, environments, prefiltered
+from neurender.ndr.buffers import NDRDataset, erode
+from neurender.ndr.evaluate import score
+from neurender.ndr.model import NDRModel, compose
+from neurender.ndr.shipped import INPUTS, ShippedNDR, gbuffer_groups
+from neurender.nn.inference import OnnxNetwork, export_onnx, quantize_convolutions
+
+#: Samples per ONNX Runtime call when a split is scored.
+BATCH = 8
+
+
+@torch.no_grad()
+def graph_inputs(
+    cfg: dict, model: NDRModel, split: str, index: int, sample: dict[str, torch.Tensor]
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The shipped graph's inputs for sample ``index`` of ``split``: its G-buffers
+    ``(1, C, H, W)`` from ``sample`` (a dataset item, ``(C, H, W)`` per group, its mask as
+    stored: the graph shades what a renderer's raw mask covers), the map's 5-band SH
+    ``(1, 75)``, prefiltered copies ``(1, L, h, 2h, 3)`` and lights ``(1, K, 7)``, made as
+    the data stage makes them for ``prefiltered``."""
+    _, env, _, _ = data.sample_scene(cfg, split, index)
+    gbuffers = torch.cat([sample[g][None] for g in gbuffer_groups(model)], 1)
+    small = environments.resize_latlong(env, cfg["coarse_height"])
+    coefficients, maps, lights = prefiltered.lighting(env, small)
+    return (
+        gbuffers.float(),
+        coefficients.reshape(1, -1).float(),
+        maps[None].float(),
+        lights[None].float(),
+    )
+
+
+def export_float32(cfg: dict, model: NDRModel, test: NDRDataset, path: str) -> float:
+    """Write ``model`` with the prefiltered coarse shading as one ONNX graph (G-buffers, SH,
+    maps and lights in, ``I_R`` out), checked against PyTorch on the first sample of the
+    test split ``test`` (sent as a batch of two copies); the largest difference."""
+    cpu = copy.deepcopy(model).cpu().eval()  # the model may stay on the GPU for its timing
+    shipped = ShippedNDR(cpu, cfg["camera_distance"], cfg["fov"], cfg["width"])
+    inputs = graph_inputs(cfg, cpu, "test", 0, test[0])
+    pair = tuple(torch.cat([t, t]) for t in inputs)  # a batch of one would fix the batch axis
+    return export_onnx(shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=INPUTS)
+
+
+def export_int8(cfg: dict, model: NDRModel, train: NDRDataset, source: str, path: str) -> None:
+    """The float32 graph ``source`` with its convolutions int8, calibrated on the first
+    :data:`CALIBRATION_SAMPLES` samples of the training split ``train`` (see the module
+    docstring), written to ``path``."""
+    feeds = []
+    for i in range(min(CALIBRATION_SAMPLES, len(train))):
+        inputs = graph_inputs(cfg, model, "train", i, train[i])
+        feeds.append({name: x.numpy() for name, x in zip(INPUTS, inputs, strict=True)})
+    quantize_convolutions(source, path, feeds)
+
+
+def predict(
+    cfg: dict, model: NDRModel, graph: OnnxNetwork, split: str, data_: NDRDataset
+) -> torch.Tensor:
+    """``I_R`` ``(N, 3, H, W)`` of ``graph`` (a shipped graph of ``model``) on every sample
+    of ``split`` (``data_``, read without mask erosion)."""
+    out = []
+    for start in range(0, len(data_), BATCH):
+        inputs = [
+            graph_inputs(cfg, model, split, i, data_[i])
+            for i in range(start, min(start + BATCH, len(data_)))
+        ]
+        arrays = [torch.cat(parts).numpy() for parts in zip(*inputs, strict=True)]
+        out.append(torch.from_numpy(graph(*arrays)))
+    return torch.cat(out)
+
+
+def score_graph(
+    cfg: dict, model: NDRModel, graph: OnnxNetwork, split: str, data_: NDRDataset, erosion: int
+) -> dict[str, torch.Tensor]:
+    """Per-sample ``dssim_I_R`` and ``l2_I_R`` ``(N,)`` of ``graph`` on ``split`` (``data_``
+    read without erosion; scored within its mask eroded by ``erosion`` pixels)."""
+    b = data_.buffers
+    mask = erode(b["mask"], erosion)
+    truth = compose(b["I_D"], b["I_S"], b)
+    pred = predict(cfg, model, graph, split, data_)
+    return score({"I_R": pred}, truth, mask)
