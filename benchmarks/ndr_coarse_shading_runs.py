@@ -6,8 +6,9 @@ Runs of the NDR stage on the default config that differ only in the coarse shadi
 after its bright texels became lights) give one ``results/ndr/metrics.csv`` each; this
 merges their quality rows (DSSIM and L2 of the tone-mapped
 ``I_R``, ``I_D``, ``I_S`` per dataset and model, every network at the config's epochs) into
-one tidy CSV with a ``coarse_shading`` column, with NDR's frame times and speed-ups from
-each run's ``ndr/equal_quality.csv`` (split ``equal quality``), and a sidecar ``.json`` with
+one tidy CSV with a ``coarse_shading`` column, with NDR's frame times and speed-ups (and
+its int8 graph's, model ``ndr_int8``, where the run has it) from each run's
+``ndr/equal_quality.csv`` (split ``equal quality``), and a sidecar ``.json`` with
 each run's folder, command and commit. Stages that ran side by side do not give fair
 timings; each run's equal-quality job was rerun alone on the idle machine
 (``--forcerun ndr_equal_quality``) before merging.
@@ -40,6 +41,8 @@ QUALITY = ("dssim_I_R", "dssim_I_D", "dssim_I_S", "l2_I_R", "l2_I_D", "l2_I_S", 
 TIMING = (
     "coarse_shading_ms",
     "network_ms",
+    "shipped_graph_ms",
+    "shipped_int8_graph_ms",
     "ms_per_frame",
     "equal_quality_mitsuba_ms",
     "speedup_vs_training_spp",
@@ -59,7 +62,7 @@ def merged(runs: dict[str, Path]) -> pd.DataFrame:
         table = pd.read_csv(path)
         frames.append(table[table.metric.isin(QUALITY)].assign(coarse_shading=shading))
         timing = pd.read_csv(results / "ndr" / "equal_quality.csv")
-        timing = timing[(timing.model == "ndr") & timing.metric.isin(TIMING)]
+        timing = timing[timing.model.isin(["ndr", "ndr_int8"]) & timing.metric.isin(TIMING)]
         frames.append(timing.assign(coarse_shading=shading))
     columns = ["coarse_shading", "dataset", "model", "split", "metric", "value"]
     return pd.concat(frames, ignore_index=True)[columns]
