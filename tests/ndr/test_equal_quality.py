@@ -266,12 +266,13 @@ def test_the_shipped_graph_scores_what_the_network_scores_on_prefiltered_data(tm
         stored = model({k: v[None] for k, v in test[0].items()})["I_R"].numpy()
     assert np.abs(shipped - stored).max() <= 1e-3 * max(1.0, np.abs(stored).max())
 
-    scores = graph_scores.score_graph(cfg, model, OnnxNetwork(graph), "test", test, 1)
+    sessions = {"float32": OnnxNetwork(graph), "int8": OnnxNetwork(int8)}
+    both = graph_scores.score_graphs(cfg, model, sessions, "test", test, 1)
+    scores, quantized = both["float32"], both["int8"]
     files = {k: str(tmp_path / f"test_{k}") for k in ("dir", "manifest", "lighting")}
     eroded = NDRDataset.from_files(files, 1).buffers  # as the evaluation reads the split
     pred = evaluate.predict(model, NDRDataset.from_files(files, 1), torch.device("cpu"))
     truth = compose(eroded["I_D"], eroded["I_S"], eroded)
     expected = evaluate.score(pred, truth, eroded["mask"])[eq.METRIC]
     torch.testing.assert_close(scores[eq.METRIC], expected, atol=1e-4, rtol=0)
-    quantized = graph_scores.score_graph(cfg, model, OnnxNetwork(int8), "test", test, 1)
     assert (quantized[eq.METRIC] - scores[eq.METRIC]).abs().max() < 0.02

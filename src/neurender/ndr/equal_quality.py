@@ -351,7 +351,7 @@ def quality_figure(
 def graph_table(per_sample: dict[tuple[str, str], dict[str, torch.Tensor]]) -> pd.DataFrame:
     """Tidy rows (split :data:`GRAPH_SPLIT`) of the shipped graphs' means on whole test
     splits: ``per_sample`` maps (dataset label, model name) to per-sample scores ``(N,)``
-    (:func:`neurender.ndr.graph_scores.score_graph`)."""
+    (:func:`neurender.ndr.graph_scores.score_graphs`)."""
     rows = []
     for (dataset, name), values in per_sample.items():
         means = {k: float(v.mean()) for k, v in values.items()}

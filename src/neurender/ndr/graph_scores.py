@@ -72,28 +72,36 @@ def export_int8(cfg: dict, model: NDRModel, train: NDRDataset, source: str, path
 
 
 def predict(
-    cfg: dict, model: NDRModel, graph: OnnxNetwork, split: str, data_: NDRDataset
-) -> torch.Tensor:
-    """``I_R`` ``(N, 3, H, W)`` of ``graph`` (a shipped graph of ``model``) on every sample
-    of ``split`` (``data_``, read without mask erosion)."""
-    out = []
+    cfg: dict, model: NDRModel, graphs: dict[str, OnnxNetwork], split: str, data_: NDRDataset
+) -> dict[str, torch.Tensor]:
+    """``I_R`` ``(N, 3, H, W)`` of each of ``graphs`` (name -> a shipped graph of ``model``)
+    on every sample of ``split`` (``data_``, read without mask erosion); each batch's inputs
+    made once for all of them."""
+    out: dict[str, list[torch.Tensor]] = {name: [] for name in graphs}
     for start in range(0, len(data_), BATCH):
         inputs = [
             graph_inputs(cfg, model, split, i, data_[i])
             for i in range(start, min(start + BATCH, len(data_)))
         ]
         arrays = [torch.cat(parts).numpy() for parts in zip(*inputs, strict=True)]
-        out.append(torch.from_numpy(graph(*arrays)))
-    return torch.cat(out)
+        for name, graph in graphs.items():
+            out[name].append(torch.from_numpy(graph(*arrays)))
+    return {name: torch.cat(parts) for name, parts in out.items()}
 
 
-def score_graph(
-    cfg: dict, model: NDRModel, graph: OnnxNetwork, split: str, data_: NDRDataset, erosion: int
-) -> dict[str, torch.Tensor]:
-    """Per-sample ``dssim_I_R`` and ``l2_I_R`` ``(N,)`` of ``graph`` on ``split`` (``data_``
-    read without erosion; scored within its mask eroded by ``erosion`` pixels)."""
+def score_graphs(
+    cfg: dict,
+    model: NDRModel,
+    graphs: dict[str, OnnxNetwork],
+    split: str,
+    data_: NDRDataset,
+    erosion: int,
+) -> dict[str, dict[str, torch.Tensor]]:
+    """Per graph of ``graphs`` (name -> session), per-sample ``dssim_I_R`` and ``l2_I_R``
+    ``(N,)`` on ``split`` (``data_`` read without erosion; scored within its mask eroded by
+    ``erosion`` pixels)."""
     b = data_.buffers
     mask = erode(b["mask"], erosion)
     truth = compose(b["I_D"], b["I_S"], b)
-    pred = predict(cfg, model, graph, split, data_)
-    return score({"I_R": pred}, truth, mask)
+    pred = predict(cfg, model, graphs, split, data_)
+    return {name: score({"I_R": p}, truth, mask) for name, p in pred.items()}

@@ -174,17 +174,17 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     train = NDRDataset.from_files(_split_files(inputs, "train"), 0, CALIBRATION_SAMPLES)
     graph_scores.export_int8(params, model, train, graphs["float32"], graphs["int8"])
     names = {equal_quality.NETWORK: "float32", equal_quality.NETWORK_INT8: "int8"}
+    sessions = {name: OnnxNetwork(graphs[precision], threads) for name, precision in names.items()}
     scored = {}
     for kind in ("complex", "sunlit"):
         split = split_name(kind, "test")
         if f"{split}_dir" not in inputs:
             continue
         raw = NDRDataset.from_files(_split_files(inputs, split), 0)  # the stored masks
-        for name, precision in names.items():
-            session = OnnxNetwork(graphs[precision], threads)
-            scored[DATASETS[kind], name] = graph_scores.score_graph(
-                params, model, session, split, raw, params["mask_erosion"]
-            )
+        per_graph = graph_scores.score_graphs(
+            params, model, sessions, split, raw, params["mask_erosion"]
+        )
+        scored |= {(DATASETS[kind], name): v for name, v in per_graph.items()}
     scenes = [equal_quality.scene_of(params, i) for i in range(count)]
     spps = equal_quality.sweep(params["equal_quality_spp"], params["spp"])
     scores = equal_quality.score_sweep(mi, params, scenes, test.buffers, spps)
