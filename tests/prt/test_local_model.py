@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -83,6 +85,26 @@ def test_output_does_not_change_when_the_shape_is_translated(architecture):
     b = model(torch.from_numpy(_raw(_bumpy(shift=(5.0, -3.0, 12.0))))).detach()
     assert a.abs().max() > 0.1
     assert torch.allclose(a, b, atol=2e-5 * float(a.abs().max()))
+
+
+def test_the_core_sees_an_occluder_beyond_its_receptive_field_only_through_the_disks():
+    """A bump raised in one corner changes the core's output in the far corner (beyond
+    its 7-px receptive field) when it reads the disks' occlusion; without, only through
+    the frame's mean grid spacing (the local features' unit), far less."""
+    cfg = _local(architecture="dilated", width=8, dilations=(1, 2), window=3, occlusion_grid=8)
+    flat = _bumpy(n=32)
+    raised = flat.copy()
+    raised[:6, :6, 2] += 1.5 * np.exp(-((np.arange(6)[:, None] - 2.5) ** 2) / 4.0)
+    far = (slice(None), slice(None), slice(12, 20), slice(0, 8))
+    changed = {}
+    for occlusion_input in (False, True):
+        model = _trained_like(replace(cfg, occlusion_input=occlusion_input))
+        base, occlusion = model.estimates_of(_raw(flat))
+        model.fit_normalisation(np.zeros_like(base), occlusion)  # the inputs' o_scale
+        with torch.no_grad():
+            a, b = (model.shadowing(torch.from_numpy(_raw(p))) for p in (flat, raised))
+        changed[occlusion_input] = float((a[far] - b[far]).abs().max())
+    assert changed[True] > 10 * changed[False]
 
 
 def test_features_do_not_change_when_the_shape_is_scaled():
@@ -184,17 +206,18 @@ def test_the_separable_local_mean_is_the_2d_mean_with_borders_of_the_pixels_insi
 @pytest.mark.parametrize("material", ["diffuse", "glossy"])
 @pytest.mark.parametrize("architecture", ["dilated", "unet"])
 def test_a_core_that_outputs_the_encoded_term_reproduces_the_targets(architecture, material):
-    """What training fits, ``encode(targets - base_of(x))``, decodes in :meth:`forward` to
+    """What training fits, ``encode(targets - estimates_of(x)[0])``, decodes in :meth:`forward` to
     the targets; the dilated term has unit standard deviation per channel, the unet's lies
     inside (0, 1) for its sigmoid."""
     cfg = _local(material=material, architecture=architecture, occlusion_grid=4)
     model = _trained_like(cfg)
     x = np.concatenate([_raw(_bumpy(seed=s)) for s in range(3)])
     targets = np.random.default_rng(1).normal(size=(3, cfg.out_channels, 16, 16))
-    gap = (targets - model.base_of(x, batch=2)).astype(np.float32)
-    model.fit_normalisation(gap)
+    base, occlusion = model.estimates_of(x, batch=2)
+    gap = (targets - base).astype(np.float32)
+    model.fit_normalisation(gap, occlusion)
     z = model.encode(torch.from_numpy(gap))
-    decoded = torch.from_numpy(model.base_of(x)) + z * model.t_scale + model.t_offset
+    decoded = torch.from_numpy(model.estimates_of(x)[0]) + z * model.t_scale + model.t_offset
     np.testing.assert_allclose(decoded.numpy(), targets, atol=1e-5)
     if architecture == "dilated":
         np.testing.assert_allclose(z.std(dim=(0, 2, 3), unbiased=False), 1.0, rtol=1e-4)

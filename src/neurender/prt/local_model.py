@@ -9,6 +9,11 @@ whole transfer, so it can memorise the training animation's global pose. This va
   surface's own elements occlude as disks (:mod:`neurender.prt.disk_occlusion`, a
   ``grid^4``-pair sum over the whole shape: occluders far apart on the geometry image,
   such as a cloth's folds, are seen by no local network);
+* reads that estimate too (``occlusion_input``): the disks' occluded transfer, divided
+  per channel by its training standard deviation, is an input of the core beside the
+  local features, so the network can learn where the disks over-count (overlapping
+  occluders, the far side of a closed surface) or under-count, and sees a fold's
+  occlusion that lies beyond its receptive field;
 * sees positions only relative to their neighbourhood: ``P`` minus its ``window x window``
   mean (average pooling), divided by ``window / 2`` times the frame's mean grid-edge
   length. These inputs do not change under a translation or a uniform scaling of the
@@ -60,6 +65,7 @@ class LocalConfig:
     blocks: int  # unet: ResNet blocks per level
     window: int = 15  # side of the local-mean window, pixels (odd)
     occlusion_grid: int = disk_occlusion.DEFAULT_GRID  # blocks per side of the disks (0: none)
+    occlusion_input: bool = True  # the core reads the disks' estimate (needs occlusion_grid)
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:
@@ -68,6 +74,8 @@ class LocalConfig:
             raise ValueError(f"occlusion_grid {self.occlusion_grid}: expected >= 0 (0: none)")
         if self.window < 1 or self.window % 2 == 0:
             raise ValueError(f"window {self.window}: expected an odd number of pixels >= 1")
+        if self.occlusion_input and not self.occlusion_grid:
+            raise ValueError("occlusion_input needs disks: occlusion_grid is 0")
         self.dilations, self.widths = tuple(self.dilations), tuple(self.widths)
 
     @property
@@ -159,10 +167,12 @@ def local_features(x: torch.Tensor, window: int) -> torch.Tensor:
 
 class ShadowingTransfer(nn.Module):
     """Raw P and N images ``(B, 6, n, n)`` to transfer ``(B, C, n, n)`` in physical units:
-    the :meth:`base` estimate plus ``core(local_features) * t_scale + t_offset``.
+    the :meth:`base` estimate plus ``core(features) * t_scale + t_offset``, the features
+    being the local ones and (``occlusion_input``) the disks' occlusion over ``o_scale``.
 
     Buffers: ``t_offset``, ``t_scale`` ``(1, C, 1, 1)`` (the shadowing target's affine
-    normalisation) and, for glossy, ``glossy_coeffs`` ``(M, 3 K)``
+    normalisation), ``o_scale`` ``(1, C, 1, 1)`` (the occlusion input's) and, for
+    glossy, ``glossy_coeffs`` ``(M, 3 K)``
     (:func:`neurender.prt.unshadowed.glossy_polynomial` of the training light) and that
     light, ``light`` ``(K, 3)`` (the glossy disk-occlusion estimate's).
     """
@@ -176,12 +186,14 @@ class ShadowingTransfer(nn.Module):
         super().__init__()
         self.cfg = cfg
         c = cfg.out_channels
+        cin = 6 + (c if cfg.occlusion_input else 0)
         if cfg.architecture == "dilated":
-            self.core = DilatedNet(6, c, cfg.width, cfg.dilations)
+            self.core = DilatedNet(cin, c, cfg.width, cfg.dilations)
         else:
-            self.core = ResUNet(6, c, list(cfg.widths), cfg.blocks)
+            self.core = ResUNet(cin, c, list(cfg.widths), cfg.blocks)
         self.register_buffer("t_offset", torch.zeros(1, c, 1, 1))
         self.register_buffer("t_scale", torch.ones(1, c, 1, 1))
+        self.register_buffer("o_scale", torch.ones(1, c, 1, 1))
         if cfg.material == "glossy":
             if glossy_coeffs is None or light is None:
                 raise ValueError("a glossy ShadowingTransfer needs the light and its glossy_coeffs")
@@ -201,36 +213,68 @@ class ShadowingTransfer(nn.Module):
             return unshadowed.diffuse(normals, self.cfg.n_bands, axis=1)
         return unshadowed.glossy(normals, self.glossy_coeffs, axis=1)
 
-    def base(self, x: torch.Tensor) -> torch.Tensor:
+    def occlusion(self, x: torch.Tensor) -> torch.Tensor | None:
+        """``(B, C, n, n)`` transfer the disks occlude in raw inputs ``(B, 6, n, n)``
+        (:func:`neurender.prt.disk_occlusion.occluded_transfer`); None without disks."""
+        if not self.cfg.occlusion_grid:
+            return None
+        return disk_occlusion.occluded_transfer(
+            x, self.cfg.n_bands, self.cfg.occlusion_grid, self.light
+        )
+
+    def base(self, x: torch.Tensor, occlusion: torch.Tensor | None = None) -> torch.Tensor:
         """``(B, C, n, n)`` estimate without learning of raw inputs ``(B, 6, n, n)``: the
-        unshadowed transfer of N minus what the disks occlude (if ``occlusion_grid``)."""
+        unshadowed transfer of N minus what the disks occlude (:meth:`occlusion`, computed
+        unless given)."""
         t = self.unshadowed(x[:, 3:])
         if self.cfg.occlusion_grid:
-            t = t - disk_occlusion.occluded_transfer(
-                x, self.cfg.n_bands, self.cfg.occlusion_grid, self.light
-            )
+            t = t - (self.occlusion(x) if occlusion is None else occlusion)
         return t
 
-    def shadowing(self, x: torch.Tensor) -> torch.Tensor:
-        """The core network's normalised output ``(B, C, n, n)`` (what training fits)."""
-        return self.core(local_features(x, self.cfg.window))
+    def shadowing(self, x: torch.Tensor, occlusion: torch.Tensor | None = None) -> torch.Tensor:
+        """The core network's normalised output ``(B, C, n, n)`` (what training fits) for
+        raw inputs ``(B, 6, n, n)`` and (``occlusion_input``) their :meth:`occlusion`,
+        computed unless given."""
+        features = local_features(x, self.cfg.window)
+        if self.cfg.occlusion_input:
+            if occlusion is None:
+                occlusion = self.occlusion(x)
+            features = torch.cat([features, occlusion / self.o_scale], 1)
+        return self.core(features)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.base(x) + self.shadowing(x) * self.t_scale + self.t_offset
+        occlusion = self.occlusion(x)  # once for the base and the core
+        return self.base(x, occlusion) + self.shadowing(x, occlusion) * self.t_scale + self.t_offset
 
-    def base_of(self, x: np.ndarray, batch: int = 16) -> np.ndarray:
-        """:meth:`base` of inputs ``(F, 6, n, n)``, ``(F, C, n, n)`` float32, in batches of
-        ``batch`` frames without gradients (computed once per training set)."""
+    def estimates_of(self, x: np.ndarray, batch: int = 16) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`base` and :meth:`occlusion` (zeros without disks) of inputs
+        ``(F, 6, n, n)``, each ``(F, C, n, n)`` float32, in batches of ``batch`` frames
+        without gradients (computed once per training set)."""
         inputs = torch.from_numpy(np.ascontiguousarray(x, np.float32))
+        bases, occlusions = [], []
         with torch.no_grad():
-            parts = [self.base(inputs[i : i + batch]) for i in range(0, len(inputs), batch)]
-        return torch.cat(parts).numpy()
+            for i in range(0, len(inputs), batch):
+                part = inputs[i : i + batch]
+                occlusion = self.occlusion(part)
+                if occlusion is None:
+                    occlusion = torch.zeros_like(self.unshadowed(part[:, 3:]))
+                bases.append(self.base(part, occlusion))
+                occlusions.append(occlusion)
+        return torch.cat(bases).numpy(), torch.cat(occlusions).numpy()
 
-    def fit_normalisation(self, gap: np.ndarray, margin: float = 0.1) -> None:
+    def fit_normalisation(
+        self, gap: np.ndarray, occlusion: np.ndarray | None = None, margin: float = 0.1
+    ) -> None:
         """Set ``t_offset``, ``t_scale`` from the training frames' shadowing term
         ``gap = targets - base`` ``(F, C, n, n)``: divided per channel by its standard
         deviation (dilated), or mapped to [0, 1] with ``margin`` on both sides (unet,
-        whose output is a sigmoid)."""
+        whose output is a sigmoid); and ``o_scale`` from their ``occlusion`` ``(F, C, n,
+        n)`` (its standard deviation per channel; needed with ``occlusion_input``)."""
+        if self.cfg.occlusion_input:
+            if occlusion is None:
+                raise ValueError("fit_normalisation: occlusion_input needs the occlusion")
+            o_scale = np.maximum(occlusion.std(axis=(0, 2, 3)), 1e-6)
+            self.o_scale.copy_(torch.as_tensor(o_scale, dtype=torch.float32).reshape(1, -1, 1, 1))
         if self.cfg.architecture == "dilated":
             offset = np.zeros(gap.shape[1])
             scale = np.maximum(gap.std(axis=(0, 2, 3)), 1e-6)
@@ -252,8 +296,8 @@ def load_local(checkpoint: str | Path) -> ShadowingTransfer:
     :func:`neurender.prt.training.train_local` (best validation epoch)."""
     state = train.load_checkpoint(checkpoint)
     extra = state["extra"]
-    model = ShadowingTransfer(
-        LocalConfig(**extra["local_config"]), extra.get("glossy_coeffs"), extra.get("light")
-    )
-    model.load_state_dict(state["model"])
+    # Checkpoints from before occlusion_input existed have cores that read no occlusion.
+    cfg = LocalConfig(**{"occlusion_input": False, **extra["local_config"]})
+    model = ShadowingTransfer(cfg, extra.get("glossy_coeffs"), extra.get("light"))
+    model.load_state_dict({"o_scale": model.o_scale, **state["model"]})  # (ones before it)
     return model.eval()

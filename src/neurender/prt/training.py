@@ -87,17 +87,18 @@ def train_deepprt(
 
 def _shadowing_loss(model, batch) -> tuple[torch.Tensor, dict[str, float]]:
     """L1 of the core's normalised shadowing term (the base estimate is not learnt); the
-    batch is raw inputs and that term, encoded once (:func:`train_local`)."""
-    x, z = batch
-    return torch.nn.functional.l1_loss(model.shadowing(x), z), {}
+    batch is raw inputs, their disks' occlusion and that term, encoded, all computed once
+    (:func:`train_local`)."""
+    x, occlusion, z = batch
+    return torch.nn.functional.l1_loss(model.shadowing(x, occlusion), z), {}
 
 
 def _shadowing_previews(model, batch) -> tuple[torch.Tensor, torch.Tensor]:
     """The first three channels of the normalised shadowing term, predicted and true,
     shown as ``0.5 + z / 4`` (the dilated core's term has unit standard deviation per
     channel, so +-2 standard deviations span [0, 1]); ``val/loss`` is its L1."""
-    x, z = batch
-    return 0.5 + model.shadowing(x)[:, :3] / 4, 0.5 + z[:, :3] / 4
+    x, occlusion, z = batch
+    return 0.5 + model.shadowing(x, occlusion)[:, :3] / 4, 0.5 + z[:, :3] / 4
 
 
 def train_local(
@@ -133,15 +134,19 @@ def train_local(
         coeffs = unshadowed.glossy_polynomial(light_k)
     model = ShadowingTransfer(local_cfg, coeffs, light_k)
     inputs = {"train": raw_inputs(train_split), "val": raw_inputs(val_split)}
-    # The base (unshadowed minus disks) is fixed, so each frame's shadowing term is
-    # computed once here rather than at every step.
+    # The base (unshadowed minus disks) and the disks' occlusion are fixed, so each
+    # frame's shadowing term and the core's occlusion input are computed once here rather
+    # than at every step.
+    estimates = {name: model.estimates_of(inputs[name]) for name in inputs}
     gaps = {
-        name: split.targets(material) - model.base_of(inputs[name])
+        name: split.targets(material) - estimates[name][0]
         for name, split in (("train", train_split), ("val", val_split))
     }
-    model.fit_normalisation(gaps["train"])
+    model.fit_normalisation(gaps["train"], estimates["train"][1])
     make = lambda name: TensorDataset(  # noqa: E731
-        torch.from_numpy(inputs[name]), model.encode(torch.from_numpy(gaps[name]))
+        torch.from_numpy(inputs[name]),
+        torch.from_numpy(estimates[name][1]),
+        model.encode(torch.from_numpy(gaps[name])),
     )
     config = train.TrainConfig.from_stage(cfg, threads)
     start = time.perf_counter()
