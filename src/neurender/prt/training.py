@@ -92,9 +92,8 @@ def _shadowing_loss(model, batch) -> tuple[torch.Tensor, dict[str, float]]:
 
     Squared, not absolute: the targets are Monte Carlo estimates, whose conditional mean
     is the true transfer, while L1 fits their conditional median, which is biased where
-    the noise is skewed (a few rays hitting a lightly occluded point). On the head
-    (default config, 8 epochs) the squared error took the test diffuse SSIM from 0.9946
-    to 0.9967."""
+    the noise is skewed (a few rays hitting a lightly occluded point). Measured in
+    docs/methods/prt.md (default config: the head's test diffuse SSIM 0.9950 to 0.9967)."""
     x, occlusion, z = batch
     return torch.nn.functional.mse_loss(model.shadowing(x, occlusion), z), {}
 
