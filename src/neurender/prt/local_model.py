@@ -256,10 +256,8 @@ class ShadowingTransfer(nn.Module):
             for i in range(0, len(inputs), batch):
                 part = inputs[i : i + batch]
                 occlusion = self.occlusion(part)
-                if occlusion is None:
-                    occlusion = torch.zeros_like(self.unshadowed(part[:, 3:]))
                 bases.append(self.base(part, occlusion))
-                occlusions.append(occlusion)
+                occlusions.append(torch.zeros_like(bases[-1]) if occlusion is None else occlusion)
         return torch.cat(bases).numpy(), torch.cat(occlusions).numpy()
 
     def fit_normalisation(
