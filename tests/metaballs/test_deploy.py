@@ -77,3 +77,20 @@ def test_the_file_renders_what_the_renderer_renders_on_fresh_scenes(deployed, va
     got = OnnxNetwork(outputs["onnx"][VARIANTS.index(variant)])(x.numpy())
     np.testing.assert_allclose(got, expected, atol=1e-4)
     assert not np.allclose(got[0], got[1], atol=1e-3)  # the images differ
+
+
+def test_a_cpu_renderer_given_its_shipped_graph_runs_that_graph(deployed):
+    inputs, outputs = deployed
+    gen = torch.Generator().manual_seed(3)
+    scene = scenes.sample_scene(4, (1.0, 2.0), gen).to(torch.float32)
+    for i, checkpoint in enumerate(inputs["checkpoints"]):
+        in_torch = MetaballRenderer(checkpoint, "cpu")
+        shipped = MetaballRenderer(checkpoint, "cpu", onnx=outputs["onnx"][i])
+        assert (in_torch.engine, shipped.engine) == ("pytorch", "onnxruntime")
+        x = shipped.inputs(scene)[None]
+        np.testing.assert_allclose(shipped(x).numpy(), in_torch(x).numpy(), atol=1e-4)
+    # the graph it was given is what runs: another variant's gives that variant's images
+    other = MetaballRenderer(inputs["checkpoints"][0], "cpu", onnx=outputs["onnx"][1])
+    x = other.inputs(scene)[None]
+    expected = MetaballRenderer(inputs["checkpoints"][1], "cpu")(x).numpy()
+    np.testing.assert_allclose(other(x).numpy(), expected, atol=1e-4)

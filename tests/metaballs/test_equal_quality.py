@@ -151,6 +151,12 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
         for name, ext in (("metrics", "csv"), ("examples", "csv"), ("by_scene", "csv"))
     } | {"figure": str(tmp_path / "c.png"), "scene_figure": str(tmp_path / "s.png")}
     jobs.metaballs_evaluate(inputs, evaluated, {"width": 32, "device": "cpu"}, 1)
+    shipped = {
+        "onnx": [str(tmp_path / "onnx" / f"{v}.onnx") for v in VARIANTS],
+        "table": str(tmp_path / "deployment.csv"),
+    }
+    jobs.metaballs_deploy(inputs, shipped, {}, 1)
+    inputs |= {"onnx": shipped["onnx"]}
     outputs = {"table": str(tmp_path / "eq.csv"), "figure": str(tmp_path / "eq.png")}
     params = {"equal_quality_examples": 1, "width": 32, "device": "cpu"}
     jobs.metaballs_equal_quality(inputs | {"examples": evaluated["examples"]}, outputs, params, 1)

@@ -132,6 +132,7 @@ rule metaballs_equal_quality:
         test_balls="results/metaballs/test_balls.csv",
         examples="results/metaballs/metrics_examples.csv",
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+        onnx=expand("results/metaballs/onnx/{variant}.onnx", variant=METABALLS_VARIANTS),
     output:
         table=report(
             "results/metaballs/equal_quality.csv",
@@ -162,6 +163,9 @@ rule metaballs_demo:
     input:
         checkpoints=expand(
             "results/metaballs/{variant}.pt", variant=METABALLS_DEMO_VARIANTS
+        ),
+        onnx=expand(
+            "results/metaballs/onnx/{variant}.onnx", variant=METABALLS_DEMO_VARIANTS
         ),
     output:
         frames="results/metaballs/demo_frames.csv",
@@ -197,7 +201,8 @@ rule metaballs_demo:
         "results/benchmarks/metaballs_demo/metaballs_demo.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # one thread: frames are timed as the equal-quality sweep's, marcher and networks alike
+    threads: 1
     resources:
         **scheduler_resources("metaballs_demo"),
     params:

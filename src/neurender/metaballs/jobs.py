@@ -95,7 +95,8 @@ def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) 
 
 
 def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) against the
+    """Every variant (``checkpoints`` and their shipped graphs ``onnx`` in the order of
+    :data:`VARIANTS`; on the CPU the graphs are timed) against the
     cheapest ray marcher of its quality (:mod:`neurender.metaballs.equal_quality`) on the
     first ``equal_quality_examples`` test examples: their quality from the evaluation's
     per-example rows (``examples``), every marcher of the sweep rendered, scored and timed
@@ -110,7 +111,9 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
         for ex in manifest.itertuples()
     ]
     # Loading sets the torch threads: the marchers are timed with the networks' threads.
-    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    renderers = load_renderers(
+        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
+    )
     scores = equal_quality.score_settings(examples, params["width"], equal_quality.sweep())
     rows = io.read_csv(inputs["examples"], ["example", "model", "metric", "value"])
     targets = equal_quality.network_targets(rows, manifest["example"].tolist())
@@ -124,10 +127,14 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
 
 
 def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The animated demo by each of :data:`DEMO_VARIANTS` (``checkpoints`` in that order)
-    and by ray marching: frames as GIF and strip, per-frame times, temporal stability,
-    frame time against the number of balls, and the timing table."""
-    renderers = load_renderers(DEMO_VARIANTS, inputs["checkpoints"], params["device"], threads)
+    """The animated demo by each of :data:`DEMO_VARIANTS` (``checkpoints`` and their shipped
+    graphs ``onnx`` in that order; on the CPU the graphs run) and by ray marching: frames
+    as GIF and strip, per-frame times, temporal stability, frame time against the number of
+    balls, and the timing table, all timed with ``threads`` threads (the rule asks for one,
+    as :func:`metaballs_equal_quality`)."""
+    renderers = load_renderers(
+        DEMO_VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
+    )
     sequence = demo.render_sequence(
         renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
     )

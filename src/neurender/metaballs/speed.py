@@ -3,7 +3,8 @@ table.
 
 Times are milliseconds of wall clock, medians of :func:`neurender.timing.timed`; a
 network's frame is drawing its inputs plus the network, whose cost does not depend on the
-number of balls.
+number of balls. Each row names the ``engine`` that ran it: the ray marcher is PyTorch's,
+a network on the CPU its shipped ONNX graph (:class:`MetaballRenderer`'s ``engine``).
 """
 
 from __future__ import annotations
@@ -26,25 +27,29 @@ RAY_MARCHER = "ray marcher"
 def frame_time_vs_balls(
     renderers: Mapping[str, MetaballRenderer], cfg: Mapping, repeats: int = 5
 ) -> pd.DataFrame:
-    """Rows ``balls, model, ms_per_frame`` for a random scene of each of ``timing_balls``
-    (``seed``, ``radius`` [min, max], ``width``): the ray marcher, then each network."""
+    """Rows ``balls, model, engine, ms_per_frame`` for a random scene of each of
+    ``timing_balls`` (``seed``, ``radius`` [min, max], ``width``): the ray marcher, then
+    each network."""
     rows = []
     for n in cfg["timing_balls"]:
         gen = torch_generator(cfg["seed"], "timing", n)
         scene = scenes.sample_scene(n, tuple(cfg["radius"]), gen).to(torch.float32)
         _, t_march = timed(raymarch.render_gbuffers, scene, cfg["width"], repeats=repeats)
-        rows.append({"balls": n, "model": RAY_MARCHER, "ms_per_frame": 1e3 * t_march})
+        rows.append(
+            {"balls": n, "model": RAY_MARCHER, "engine": "pytorch", "ms_per_frame": 1e3 * t_march}
+        )
         for name, r in renderers.items():
             x, t_in = timed(r.inputs, scene, repeats=repeats)
             _, t_net = timed(r, x[None], repeats=repeats)
-            rows.append({"balls": n, "model": name, "ms_per_frame": 1e3 * (t_in + t_net)})
+            ms = 1e3 * (t_in + t_net)
+            rows.append({"balls": n, "model": name, "engine": r.engine, "ms_per_frame": ms})
     return pd.DataFrame(rows)
 
 
 def timing_table(timings: pd.DataFrame, flips: pd.DataFrame, balls: pd.DataFrame) -> pd.DataFrame:
     """Tidy ``timing.csv``: per network the demo's mean times per frame, its silhouette
     flips (and the ray marcher's) and its speed-up over ray marching at the most balls;
-    then every ``ms_per_frame`` of ``balls``.
+    then every ``ms_per_frame`` of ``balls``; each row with the ``engine`` of its model.
 
     Args:
         timings: :attr:`neurender.metaballs.demo.Sequence.timings`.
@@ -54,6 +59,7 @@ def timing_table(timings: pd.DataFrame, flips: pd.DataFrame, balls: pd.DataFrame
     most = int(balls["balls"].max())
     at_most = balls[balls["balls"] == most].drop_duplicates("model")
     at_most = at_most.set_index("model")["ms_per_frame"]
+    engine = balls.drop_duplicates("model").set_index("model")["engine"]
     rows = []
     for name, part in timings.groupby("model", sort=False):
         summary = {
@@ -65,8 +71,8 @@ def timing_table(timings: pd.DataFrame, flips: pd.DataFrame, balls: pd.DataFrame
             "silhouette_flips_raymarch": flips[RAY_MARCHING].mean(),
             f"speedup_at_{most}_balls": at_most[RAY_MARCHER] / at_most[name],
         }
-        rows += tidy_rows("metaballs", "demo", name, "timing", summary)
+        rows += tidy_rows("metaballs", "demo", name, "timing", summary, engine=engine[name])
     for r in balls.itertuples():
-        dataset = f"{int(r.balls)} balls"
-        rows += tidy_rows("metaballs", dataset, r.model, "timing", {"ms_per_frame": r.ms_per_frame})
+        dataset, values = f"{int(r.balls)} balls", {"ms_per_frame": r.ms_per_frame}
+        rows += tidy_rows("metaballs", dataset, r.model, "timing", values, engine=r.engine)
     return pd.DataFrame(rows)
