@@ -148,6 +148,20 @@ def test_the_shipped_variant_needs_half_the_paper_forms_radiance_error(shadowing
     assert "<= 0.5 x DeepPRT's (0.1000)" in rows.check.iloc[0]
 
 
+@pytest.mark.parametrize(("floor", "noted"), [(0.049, False), (0.051, True)])
+def test_a_radiance_target_below_the_references_own_noise_says_so(floor, noted):
+    table = _metrics(0.10, 0.04)
+    for model, value in (("ground truth 256 dirs", 0.2), ("ground truth 1024 dirs", floor)):
+        rows = tidy_rows("prt", "obj", model, "test", {"rel_l1_radiance_glossy": value})
+        table = pd.concat([table, pd.DataFrame(rows)])
+    found = target_frame(table, [], "DeepPRT shadowing")
+    glossy = found[found.check.str.contains("rel_l1_radiance_glossy")]
+    assert glossy.met.tolist() == [True]  # noted or not, met is the measured comparison
+    assert glossy.check.str.contains(f"below the {floor:.4f} of an independent").tolist() == [noted]
+    diffuse = found[found.check.str.contains("rel_l1_radiance_diffuse")]
+    assert not diffuse.check.str.contains("independent").any()  # no floor row for diffuse
+
+
 def test_no_radiance_target_without_the_paper_form():
     table = _metrics(0.10, 0.04)
     alone = table[table.model != "DeepPRT"]

@@ -3,11 +3,16 @@
 Train and val targets are Monte Carlo estimates with ``directions`` samples per vertex;
 test frames have a clean reference (``reference_directions``). Two more independent
 training-quality estimates of test frames show how far the targets themselves are from
-the reference (the noise floor): no model trained on them can be scored as exact.
+the reference (the noise floor): no model trained on them can be scored as exact. One
+more independent estimate at the reference's own direction count, scored like a model,
+measures the reference's noise: a target below its score is missed even by a ray-traced
+estimate as good as the reference itself.
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +63,7 @@ def noise_floor_rows(
             "l1_transfer_vs_reference": float(np.abs(samples[0][0] - ref["T"]).mean()),
             "l1_glossy_vs_reference": float(np.abs(samples[0][1] - ref["G"]).mean()),
         }
-        model = f"ground truth {cfg['directions']} dirs"
+        model = ground_truth_label(cfg["directions"])
         rows += tidy_rows("prt", name, model, "test", values, frame=f)
     return rows
 
@@ -66,15 +71,36 @@ def noise_floor_rows(
 def noise_floor_predictions(
     name: str, positions: np.ndarray, light: np.ndarray, cfg: dict, threads: int
 ) -> Predictions:
-    """Training-quality ground truth of every test frame ``positions (F, n, n, 3)``,
-    sampled independently of the reference, as a model's predictions ``(F, C, n, n)``."""
+    """Ray-traced ground truth of every test frame ``positions (F, n, n, 3)``, sampled
+    independently of the reference, as models' predictions ``(F, C, n, n)``: at the
+    training quality (``directions``: the noise of the targets models learn from) and at
+    the reference's own quality (``reference_directions``: the reference's noise; a target
+    below its score is missed even by an estimate as good as the reference)."""
     offset = frames.ray_offset(positions[0], cfg["ray_offset"])
-    diffuse, glossy = [], []
-    for f in range(len(positions)):
-        _, d, g, _ = transfer.sample_frame(
-            positions[f], cfg["directions"], cfg, offset, light, threads, name, "eval-noise", f
-        )
-        diffuse.append(np.moveaxis(d, -1, 0))
-        glossy.append(np.moveaxis(g.reshape(*g.shape[:2], -1), -1, 0))
-    label = f"ground truth {cfg['directions']} dirs"
-    return {(label, "diffuse"): np.stack(diffuse), (label, "glossy"): np.stack(glossy)}
+    out = {}
+    for key, stream in (("directions", "eval-noise"), ("reference_directions", "eval-ref-noise")):
+        diffuse, glossy = [], []
+        for f in range(len(positions)):
+            _, d, g, _ = transfer.sample_frame(
+                positions[f], cfg[key], cfg, offset, light, threads, name, stream, f
+            )
+            diffuse.append(np.moveaxis(d, -1, 0))
+            glossy.append(np.moveaxis(g.reshape(*g.shape[:2], -1), -1, 0))
+        label = ground_truth_label(cfg[key])
+        out |= {(label, "diffuse"): np.stack(diffuse), (label, "glossy"): np.stack(glossy)}
+    return out
+
+
+def ground_truth_label(directions: int) -> str:
+    """The model name of an independent ray-traced estimate with ``directions`` samples."""
+    return f"ground truth {directions} dirs"
+
+
+def reference_quality_label(models: Iterable[str]) -> str | None:
+    """Of the models' names, the independent estimate with the most directions (the
+    reference's quality: :func:`noise_floor_predictions`); ``None`` if there is none."""
+    counts = [int(m.group(1)) for name in models if (m := _GROUND_TRUTH.fullmatch(name))]
+    return ground_truth_label(max(counts)) if counts else None
+
+
+_GROUND_TRUTH = re.compile(r"ground truth (\d+) dirs")
