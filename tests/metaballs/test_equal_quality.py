@@ -122,7 +122,7 @@ def test_network_targets_average_the_first_examples_only():
 
 def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path):
     from neurender import io
-    from neurender.metaballs import GAN_VARIANTS, VARIANTS, jobs
+    from neurender.metaballs import GAN_VARIANTS, REFINED_BASELINE, VARIANTS, jobs
 
     files = {}
     for split, count in (("train", 2), ("val", 1), ("test", 2)):
@@ -178,4 +178,8 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
             ms = marchers[(marchers.setting == pick) & (marchers.metric == "ms_per_frame")]
             ratio = ms.value.iloc[0] / rows["ms_per_frame"]
             assert rows["equal_quality_speedup"] == pytest.approx(ratio)
+    refined = table[table.model == REFINED_BASELINE].set_index("metric")["value"]
+    expected = first[first.model == REFINED_BASELINE].set_index("metric")["value"]
+    assert refined["iou_depth"] == pytest.approx(expected["iou_depth"])
+    assert refined["ms_per_frame"] > 0  # the no-learning renderer timed beside the networks
     assert open(outputs["figure"], "rb").read(4) == b"\x89PNG"

@@ -78,3 +78,30 @@ def test_data_rows_summarise_a_split():
         "min_depth_separation_median": 1.0,
         "raymarch_seconds_per_example": 1.0,
     }
+
+
+def test_every_network_is_checked_against_the_refined_impostors_and_they_are_not():
+    metrics = _metrics(
+        [
+            ("net", "iou_depth", 0.97),
+            ("net", "normal_error_mean_deg", 3.0),
+            ("isolated spheres", "iou_depth", 0.8),
+            ("isolated spheres", "normal_error_mean_deg", 20.0),
+            ("refined spheres", "iou_depth", 0.96),
+            ("refined spheres", "normal_error_mean_deg", 2.5),
+        ]
+    )
+    equal = pd.DataFrame(
+        [
+            ("net", "step 1, 4 bisections, 1 width", "equal_quality_speedup", 2.0),
+            ("refined spheres", "step 1, 4 bisections, 1 width", "equal_quality_speedup", 3.0),
+        ],
+        columns=["model", "setting", "metric", "value"],
+    )
+    table = summary.targets(metrics, _metrics([]), equal, width=128)
+    assert set(table.subject) == {"net"}  # the baseline is compared with, never checked
+    against = table[table.check.str.contains("refined spheres")].set_index("check")
+    iou = "better than refined spheres (no learning) on iou_depth (0.96)"
+    angle = "better than refined spheres (no learning) on normal_error_mean_deg (2.5)"
+    assert against.loc[iou, "met"] and not against.loc[angle, "met"]
+    assert against.loc[angle, "measured"] == 3.0

@@ -126,7 +126,7 @@ def test_scores_are_the_test_sets_metrics_and_an_exact_renderer_scores_perfectly
         rows.append(frame)
         shown.update(show)
     frame = pd.concat(rows)
-    assert set(frame.model) == {"exact", "isolated spheres", "inflated spheres"}
+    assert set(frame.model) == {"exact", "isolated spheres", "inflated spheres", "refined spheres"}
     assert set(frame.scene) == {"a", "b"} and set(frame.balls) == {2}
     assert (frame.dataset == "your scenes").all()
     exact_rows = frame[frame.model == "exact"].set_index(["scene", "metric"])["value"]

@@ -2,7 +2,8 @@
 
 Pipeline: :mod:`scenes` (camera, random balls) -> :mod:`raymarch` (exact targets) and
 :mod:`inputs` (circles, sphere impostors) -> :mod:`ab` (AB images) -> :mod:`dataset`,
-:mod:`model`, :mod:`training` -> :mod:`renderer` (inference) -> :mod:`evaluate`,
+:mod:`model`, :mod:`training` -> :mod:`renderer` (inference) -> :mod:`evaluate`
+(beside the no-learning baselines, the strongest :mod:`refined`),
 :mod:`user_scenes` (your CSV of balls), :mod:`demo`, :mod:`speed`, :mod:`equal_quality`
 (the cheapest ray marcher of a network's quality), :mod:`summary`, :mod:`figures`. The
 G-buffer layout and the silhouette tests are :mod:`gbuffers`; each rule's job is in
@@ -24,6 +25,11 @@ GAN_VARIANTS = ("pix2pix",)
 
 #: The thesis's network and ours: the demo animates and times both.
 DEMO_VARIANTS = ("pix2pix", "sphere_residual")
+
+#: The strongest no-learning baseline: inflated impostors refined on the field
+#: (:mod:`neurender.metaballs.refined`); every network is checked against it, and the
+#: equal-quality sweep times it beside the networks.
+REFINED_BASELINE = "refined spheres"
 
 #: Copies of each training example with ``metaballs_model.flips``: as it is and mirrored in
 #: x, in y and in both (:class:`neurender.metaballs.dataset.ABDataset`).

@@ -10,7 +10,9 @@ degrees (``normal_error_mean_deg``, lower is better), against the same ray-march
 as the networks, on the same first test examples. The cheapest setting
 whose two means both reach a network's is its equal-quality marcher; the ratio of its
 milliseconds per frame to the network's (inputs and network, as the speed table) is the
-equal-quality speed-up. Times are wall-clock medians of :func:`neurender.timing.timed`,
+equal-quality speed-up. The strongest no-learning renderer
+(:data:`neurender.metaballs.REFINED_BASELINE`) is timed and compared alike, its frame
+the whole render. Times are wall-clock medians of :func:`neurender.timing.timed`,
 the marchers' and the networks' on the same scenes, machine and threads.
 """
 
@@ -129,6 +131,15 @@ def network_ms_per_frame(
         x, t_in = timed(draw, scene, repeats=repeats, warmup=1)
         _, t_net = timed(network, x[None], repeats=repeats, warmup=1)
         total += t_in + t_net
+    return 1e3 * total / len(scenes)
+
+
+def renderer_ms_per_frame(
+    render: Callable[[Scene], torch.Tensor], scenes: Sequence[Scene], repeats: int = 5
+) -> float:
+    """Mean over ``scenes`` of the median milliseconds of a no-learning renderer's whole
+    frame ``render(scene)`` (e.g. :func:`neurender.metaballs.refined.refined_spheres`)."""
+    total = sum(timed(render, scene, repeats=repeats, warmup=1)[1] for scene in scenes)
     return 1e3 * total / len(scenes)
 
 

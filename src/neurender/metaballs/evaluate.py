@@ -7,9 +7,10 @@ by the normal buffer. Normal errors are angles between decoded unit normals insi
 silhouette (by depth); depth errors are in world units inside it.
 
 No-learning baselines: "isolated spheres" (every ball a sphere of radius ``r``: exactly what
-a circle of the input encodes, without the blend) and "inflated spheres" (radius grown by
+a circle of the input encodes, without the blend), "inflated spheres" (radius grown by
 the other balls' field, :func:`neurender.metaballs.inputs.inflated_radii`: the prior our
-residual model starts from).
+residual model starts from) and "refined spheres" (those impostors refined on the field,
+:mod:`neurender.metaballs.refined`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ from tqdm import tqdm
 
 from neurender import metrics
 from neurender.metaball import Scene
-from neurender.metaballs import ab, gbuffers, inputs, scenes
+from neurender.metaballs import REFINED_BASELINE, ab, gbuffers, inputs, scenes
+from neurender.metaballs.refined import refined_spheres
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.tables import tidy_rows
 from neurender.train import epochs_trained
@@ -78,6 +80,7 @@ def baselines(scene: Scene, width: int) -> dict[str, torch.Tensor]:
     return {
         "isolated spheres": inputs.draw_spheres(scene, width).stack(),
         "inflated spheres": inputs.inflated_spheres(scene, width).stack(),
+        REFINED_BASELINE: refined_spheres(scene, width).stack(),
     }
 
 

@@ -181,6 +181,22 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     """
     dtype = scene.centres.dtype
     rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3)
+    dist, first = sphere_hits(scene, width)
+    hit = first < len(scene)
+    ball = first[hit]
+    colour = torch.zeros(3, width * width, dtype=dtype, device=scene.centres.device)
+    normal = torch.zeros_like(colour)
+    colour[:, hit] = scene.colours[ball].T
+    points = rays[hit] * dist[hit, None]
+    normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
+    return from_hits(dist, colour, normal, width)
+
+
+def sphere_hits(scene: Scene, width: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per pixel ``(W * W,)`` (row-major) the distance along its ray to the nearest sphere
+    of the scene's radii (``inf`` where none) and that sphere's ball (of tied ones the
+    lowest; ``len(scene)`` where none), rasterised per ball over its screen rectangle."""
+    rays = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3)
     ray_axes = rays.T.contiguous()
     offset = scene.centres.square().sum(1) - scene.radii.square()  # |c|^2 - r^2
     blocks = _footprints(_sphere_boxes(scene.centres, scene.radii, width), width)
@@ -195,15 +211,7 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
         disc = b.square() - offset[blk.ball]
         t = torch.where((disc >= 0) & blk.valid, b - disc.clamp(min=0).sqrt(), math.inf)
         keys.append(torch.where(t > 0, t, math.inf))
-    dist, first = _nearest(blocks, keys, width, scene)
-    hit = first < len(scene)
-    ball = first[hit]
-    colour = torch.zeros(3, width * width, dtype=dtype, device=scene.centres.device)
-    normal = torch.zeros_like(colour)
-    colour[:, hit] = scene.colours[ball].T
-    points = rays[hit] * dist[hit, None]
-    normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
-    return from_hits(dist, colour, normal, width)
+    return _nearest(blocks, keys, width, scene)
 
 
 def inflated_radii(scene: Scene) -> torch.Tensor:

@@ -17,6 +17,7 @@ from neurender import io, viewer_data
 from neurender.deployment import deployment_table
 from neurender.metaballs import (
     DEMO_VARIANTS,
+    REFINED_BASELINE,
     VARIANTS,
     ab,
     data,
@@ -31,6 +32,7 @@ from neurender.metaballs import (
     training,
     user_scenes,
 )
+from neurender.metaballs.refined import refined_spheres
 from neurender.metaballs.renderer import MetaballRenderer, load_renderers
 from neurender.metaballs.viewer import demo_view
 
@@ -100,7 +102,8 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
     cheapest ray marcher of its quality (:mod:`neurender.metaballs.equal_quality`) on the
     first ``equal_quality_examples`` test examples: their quality from the evaluation's
     per-example rows (``examples``), every marcher of the sweep rendered, scored and timed
-    beside each network's frame time, all with ``threads`` torch threads (the rule asks for
+    beside each network's frame time and the refined impostors' (the strongest no-learning
+    renderer, :data:`REFINED_BASELINE`), all with ``threads`` torch threads (the rule asks for
     one: on a shared 2-core machine two threads of small tensor operations measured up to
     20 times slower); the tidy ``table`` and the ``figure``."""
     manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
@@ -122,6 +125,9 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
         name: (targets[name], equal_quality.network_ms_per_frame(r.inputs, r, scenes))
         for name, r in renderers.items()
     }
+    width = params["width"]
+    refined_ms = equal_quality.renderer_ms_per_frame(lambda s: refined_spheres(s, width), scenes)
+    networks[REFINED_BASELINE] = (targets[REFINED_BASELINE], refined_ms)
     io.write_csv(outputs["table"], equal_quality.table(scores, networks))
     equal_quality.quality_figure(scores, networks, outputs["figure"])
 

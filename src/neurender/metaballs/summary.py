@@ -2,15 +2,19 @@
 
 Targets (thresholds from the metaballs' ``targets.csv``, beside this module): per network a
 silhouette IoU and a mean normal error (stricter at the paper's scale, ``W >= 512``),
-better than the isolated-sphere baseline on every metric, and a frame (inputs + network)
+better than the isolated-sphere baseline on every metric and than the refined impostors
+(the strongest no-learning baseline) on IoU and normal error, and a frame (inputs + network)
 faster than ray marching at the most balls and than the cheapest ray marcher of its quality
 (:mod:`neurender.metaballs.equal_quality`).
 """
 
 from __future__ import annotations
 
+import math
+
 import pandas as pd
 
+from neurender.metaballs import REFINED_BASELINE
 from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
 
 #: Image width from which the paper-scale thresholds apply (the thesis used 512).
@@ -18,6 +22,9 @@ PAPER_SCALE_WIDTH = 512
 #: The baseline every network must beat, and the suffix of every no-learning baseline.
 BASELINE = "isolated spheres"
 BASELINE_SUFFIX = " spheres"
+#: The metrics every network is checked on against the strongest no-learning baseline
+#: (:data:`neurender.metaballs.REFINED_BASELINE`): those of the equal-quality sweep.
+STRONGEST_BASELINE_METRICS = ("iou_depth", "normal_error_mean_deg")
 #: Rows of the metrics table that state a network's training budget, not a score.
 BUDGET_METRICS = {"epochs"}
 #: Metric prefixes where lower is better (the rest: higher is better).
@@ -39,8 +46,9 @@ def data_rows(manifest: pd.DataFrame) -> list[dict]:
 
 
 def accuracy_targets(metrics: pd.DataFrame, width: int) -> list[Target]:
-    """Per network (every model of ``metrics`` but the baselines): IoU, normal error and
-    every metric against the isolated spheres."""
+    """Per network (every model of ``metrics`` but the baselines): IoU, normal error,
+    every metric against the isolated spheres, and IoU and normal error against the
+    refined impostors (where the table has them)."""
     scale = "_paper_scale" if width >= PAPER_SCALE_WIDTH else ""
     iou_min = threshold("metaballs", f"iou_depth{scale}")
     angle_max = threshold("metaballs", f"normal_error_deg{scale}")
@@ -59,6 +67,14 @@ def accuracy_targets(metrics: pd.DataFrame, width: int) -> list[Target]:
             base = lookup(metrics, model=BASELINE, metric=metric)
             better = ours < base if metric.startswith(LOWER_IS_BETTER) else ours > base
             check = f"better than {BASELINE} on {metric} ({base:.4g})"
+            out.append(Target(model, check, ours, bool(better)))
+        for metric in STRONGEST_BASELINE_METRICS:
+            best = lookup(metrics, model=REFINED_BASELINE, metric=metric)
+            if math.isnan(best):
+                continue
+            ours = lookup(metrics, model=model, metric=metric)
+            better = ours < best if metric.startswith(LOWER_IS_BETTER) else ours > best
+            check = f"better than {REFINED_BASELINE} (no learning) on {metric} ({best:.4g})"
             out.append(Target(model, check, ours, bool(better)))
     return out
 
@@ -83,7 +99,8 @@ def equal_quality_targets(equal: pd.DataFrame) -> list[Target]:
     marcher of its quality (``equal_quality.csv``; missed where no marcher reaches it)."""
     least = threshold("metaballs", "equal_quality_speedup")
     out = []
-    for s in equal[equal["metric"] == "equal_quality_speedup"].itertuples():
+    networks = equal[~equal["model"].str.endswith(BASELINE_SUFFIX)]
+    for s in networks[networks["metric"] == "equal_quality_speedup"].itertuples():
         marcher = f"({s.setting})" if s.setting != "none" else "(none of the sweep reaches it)"
         check = f"frame >= {least:g}x faster than the cheapest ray marcher of its quality {marcher}"
         out.append(Target(s.model, check, float(s.value), float(s.value) >= least))
