@@ -9,10 +9,9 @@ to the winning ball's centre, where that ball's contribution peaks. A pixel whos
 ``hi`` stays below the threshold is background: the impostor overestimated the blend. The
 impostor's own hit, close to the crossing (exact for a lone ball), replaces the end of the
 bracket on its side; the pixel then takes :data:`STEPS` Illinois regula-falsi steps on the
-whole field, then
-the blended colour and the field's normal at the point found (as the ray marcher's
-targets). Pixels no impostor covers stay background, so thin bridges between balls are
-still missing.
+whole field and gets the blended colour and the field's normal at the point found (as the
+ray marcher's targets). Pixels no impostor covers stay background, so thin bridges between
+balls are still missing.
 
 The cost is one field evaluation per pixel and ball for each of ``STEPS + 3`` points:
 cheap for the test scenes' 3 to 20 balls, too costly at the demo's 145 (every ball's field
@@ -53,7 +52,7 @@ def refined_spheres(scene: Scene, width: int, steps: int = STEPS) -> GBuffers:
     hi = torch.maximum(peak, t0)
     lo = (t0 - inflated.radii[ball]).clamp(min=MIN_DEPTH)
     f_hi, f_lo = _field(hi, rays, scene), _field(lo, rays, scene)
-    inside_lo = f_lo >= 0  # the field is already above the threshold there: from the near plane
+    inside_lo = f_lo >= 0  # already inside the surface there: bracket from the near plane
     lo = torch.where(inside_lo, torch.full_like(lo, MIN_DEPTH), lo)
     f_lo = torch.where(inside_lo, _field(lo, rays, scene), f_lo)
     at_near = f_lo >= 0  # inside the surface at the near plane itself
