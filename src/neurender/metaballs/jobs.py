@@ -98,14 +98,14 @@ def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) 
 
 def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every variant (``checkpoints`` and their shipped graphs ``onnx`` in the order of
-    :data:`VARIANTS`; on the CPU the graphs are timed) against the
-    cheapest ray marcher of its quality (:mod:`neurender.metaballs.equal_quality`) on the
-    first ``equal_quality_examples`` test examples: their quality from the evaluation's
+    :data:`VARIANTS`; on the CPU the graphs are timed) against the cheapest ray marcher of
+    its quality (:mod:`neurender.metaballs.equal_quality`) on the first
+    ``equal_quality_examples`` test examples: their quality from the evaluation's
     per-example rows (``examples``), every marcher of the sweep rendered, scored and timed
     beside each network's frame time and the refined impostors' (the strongest no-learning
-    renderer, :data:`REFINED_BASELINE`), all with ``threads`` torch threads (the rule asks for
-    one: on a shared 2-core machine two threads of small tensor operations measured up to
-    20 times slower); the tidy ``table`` and the ``figure``."""
+    renderer, :data:`REFINED_BASELINE`), all with ``threads`` torch threads (the rule asks
+    for one: on a shared 2-core machine two threads of small tensor operations measured up
+    to 20 times slower); the tidy ``table`` and the ``figure``."""
     manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
     manifest = manifest.head(params["equal_quality_examples"])
     scene_of = data.read_scenes(inputs["test_balls"])
