@@ -32,6 +32,7 @@ from neurender.metaballs import (
     EQUAL_QUALITY_BISECTIONS,
     EQUAL_QUALITY_MIN_STEPS,
     EQUAL_QUALITY_RESOLUTIONS,
+    REFINED_BASELINE,
     evaluate,
     raymarch,
 )
@@ -208,8 +209,8 @@ def quality_figure(
     path: str,
 ) -> None:
     """Each :data:`QUALITY` metric against milliseconds per frame (log scale): the sweep's
-    settings by resolution, the reference ringed, each network a star and the cheapest
-    marcher of its quality crossed.
+    settings by resolution, the reference ringed, each network a star (the no-learning
+    refined impostors a diamond) and the cheapest marcher of its quality crossed.
 
     Args:
         networks: name to ``(its metric means, its ms per frame)``.
@@ -222,7 +223,9 @@ def quality_figure(
         ref = scores[scores["label"] == REFERENCE.label]
         ax.scatter(ref["ms_per_frame"], ref[metric], s=90, facecolors="none", edgecolors="k")
         for name, (means, ms) in networks.items():
-            star = ax.scatter([ms], [means[metric]], marker="*", s=160, label=name, zorder=3)
+            learned = name != REFINED_BASELINE
+            marker, label = ("*", name) if learned else ("D", f"{name} (no learning)")
+            star = ax.scatter([ms], [means[metric]], marker=marker, s=160, label=label, zorder=3)
             best = cheapest(scores, means)
             if best is not None:
                 ax.scatter(
