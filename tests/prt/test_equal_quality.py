@@ -106,31 +106,29 @@ def test_a_variants_equal_quality_ratio_is_against_the_cheapest_count_reaching_i
     assert math.isnan(value["equal_quality_directions"])
 
 
-def _bowl_split(n=6, frames=2):
-    """Geometry images of a shallow bowl (it shadows itself) and placeholder transfer."""
-    u = np.linspace(-1, 1, n)
-    x, y = np.meshgrid(u, u, indexing="ij")
-    bowl = np.stack([x, y, 0.6 * (x**2 + y**2)], -1).astype(np.float32)
-    positions = np.stack([bowl * [1, 1, 1 + 0.5 * f] for f in range(frames)]).astype(np.float32)
-    shape = (frames, n, n)
+def _bowl_split(positions):
+    """The bowl's geometry images with placeholder transfer."""
+    shape = positions.shape[:3]
     return Split(
         positions,
         np.zeros((*shape, 3), np.float32),
         np.full((*shape, 4), 0.3, np.float32),
         np.zeros((*shape, 3, 4), np.float32),
-        np.zeros((frames, 1)),
+        np.zeros((shape[0], 1)),
     )
 
 
 @pytest.mark.parametrize("sweep", [[4, 16], [4, 16, 64]])
-def test_the_sweep_may_hold_the_references_own_count(sweep):
+def test_the_sweep_may_hold_the_references_own_count(sweep, bowl_positions):
     from neurender.prt.equal_quality import ray_traced_estimates
 
     cfg = {"seed": 0, "n_bands": 2, "direction_sets": 2, "ray_offset": 1e-3}
     cfg |= {"equal_quality_directions": sweep, "reference_directions": 64}
     cfg |= {"render_resolution": 16}
     light = np.full((4, 3), 0.5, np.float32)
-    estimates, reference_s = ray_traced_estimates("bowl", _bowl_split(), 2, light, cfg, 1)
+    estimates, reference_s = ray_traced_estimates(
+        "bowl", _bowl_split(bowl_positions()), 2, light, cfg, 1
+    )
     assert sorted(estimates) == sweep  # every count scored, the reference's too
     assert all(np.isfinite(ssim) and seconds > 0 for seconds, ssim in estimates.values())
     assert reference_s > 0

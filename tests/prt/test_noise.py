@@ -10,17 +10,12 @@ def test_the_reference_quality_label_is_the_estimate_with_the_most_directions():
     assert noise.ground_truth_label(64) == "ground truth 64 dirs"
 
 
-def _bowl(n=6):
-    """A geometry image ``(n, n, 3)`` of a shallow bowl: it shadows itself."""
-    u = np.linspace(-1, 1, n)
-    x, y = np.meshgrid(u, u, indexing="ij")
-    return np.stack([x, y, 0.6 * (x**2 + y**2)], -1).astype(np.float32)
-
-
-def test_the_reference_quality_estimate_is_closer_to_a_clean_one_than_the_training_one():
+def test_the_reference_quality_estimate_is_closer_to_a_clean_one_than_the_training_one(
+    bowl_positions,
+):
     cfg = {"seed": 3, "n_bands": 2, "direction_sets": 2, "ray_offset": 1e-3}
     cfg |= {"directions": 16, "reference_directions": 256}
-    positions = np.stack([_bowl(), _bowl() * [1, 1, 1.5]]).astype(np.float32)
+    positions = bowl_positions()
     light = np.full((4, 3), 0.5, np.float32)  # 2 bands of SH light
     preds = noise.noise_floor_predictions("bowl", positions, light, cfg, 1)
     assert set(preds) == {

@@ -24,7 +24,7 @@ import math
 
 import torch
 
-from neurender.metaball import THRESHOLD, Scene, surface_attributes
+from neurender.metaball import THRESHOLD, Scene, field, surface_attributes
 from neurender.metaballs.gbuffers import GBuffers, from_hits
 from neurender.metaballs.inputs import inflated_radii, sphere_hits
 from neurender.metaballs.scenes import MIN_DEPTH, pixel_rays
@@ -36,8 +36,7 @@ STEPS = 4
 
 def _field(t: torch.Tensor, rays: torch.Tensor, scene: Scene) -> torch.Tensor:
     """``F - THRESHOLD`` ``(P,)`` at distance ``t`` ``(P,)`` along unit ``rays`` ``(P, 3)``."""
-    d2 = torch.cdist(t[:, None] * rays, scene.centres).square()
-    return (scene.radii.square() / d2).sum(1) - THRESHOLD
+    return field(t[:, None] * rays, scene)[0] - THRESHOLD
 
 
 def refined_spheres(scene: Scene, width: int, steps: int = STEPS) -> GBuffers:
