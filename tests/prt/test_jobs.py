@@ -156,6 +156,7 @@ def trained(head):
     ]:
         stem = out / f"{variant}_{material}"
         outputs = {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx", "loss": f"{stem}_loss.csv"}
+        outputs["int8"] = f"{stem}_int8.onnx"
         outputs["tensorboard"] = str(head / "tensorboard" / f"{variant}_{material}" / "run.json")
         params = {**CFG, **TRAIN, "material": material, "variant": variant}
         extra = {"light": head / "sky_sh.csv"} if material == "glossy" else {}
@@ -187,6 +188,8 @@ def test_each_variant_trains_into_a_checkpoint_both_engines_serve(
     assert torch_pred.shape == val.targets(material).shape  # (F, C, n, n)
     np.testing.assert_allclose(onnx_pred, torch_pred, rtol=1e-4, atol=1e-5)
     assert io.read_csv(outputs["loss"]).epoch.max() == 1
+    int8 = DeepPRT(outputs["checkpoint"], outputs["int8"], device="cpu", pytorch=False)
+    assert int8.predict(val).shape == torch_pred.shape  # the same contract, ONNX Runtime alone
 
 
 def test_an_unknown_variant_is_refused_naming_it(trained, head):

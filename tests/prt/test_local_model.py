@@ -1,6 +1,7 @@
 from dataclasses import replace
 
 import numpy as np
+import onnx as onnx_lib
 import pytest
 import torch
 
@@ -11,14 +12,13 @@ from neurender.prt.frames import Split
 from neurender.prt.local_model import (
     DilatedNet,
     LocalConfig,
-    PixelNorm,
     ShadowingTransfer,
     load_local,
     local_features,
     local_mean,
     receptive_field,
 )
-from neurender.prt.model import DeepPRT, export_deepprt
+from neurender.prt.model import DeepPRT, export_deepprt, export_int8
 from neurender.prt.training import train_local
 
 
@@ -188,6 +188,17 @@ def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, mate
     net = DeepPRT(ckpt, onnx, device="cpu")
     for engine in ("pytorch", "onnxruntime"):
         assert np.allclose(net.predict(val, engine=engine), loaded, rtol=1e-4, atol=1e-5)
+    # Its int8 graph: convolutions quantized, served by ONNX Runtime alone, close to the
+    # float32 graph and, like it, better than the estimate it corrects.
+    int8_file = tmp_path / "local_int8.onnx"
+    export_int8(onnx, train, int8_file)
+    ops = {node.op_type for node in onnx_lib.load(str(int8_file)).graph.node}
+    assert {"QuantizeLinear", "DequantizeLinear"} <= ops
+    int8 = DeepPRT(ckpt, int8_file, device="cpu", pytorch=False)
+    assert set(int8.engines) == {"onnxruntime"}
+    approx = int8.predict(val)
+    assert np.abs(approx - loaded).mean() <= 0.05 * np.abs(loaded).mean()
+    assert np.abs(approx - target).mean() < 0.7 * base
 
 
 @pytest.mark.parametrize("window", [1, 3, 15])
@@ -223,18 +234,3 @@ def test_a_core_that_outputs_the_encoded_term_reproduces_the_targets(architectur
         np.testing.assert_allclose(z.std(dim=(0, 2, 3), unbiased=False), 1.0, rtol=1e-4)
     else:
         assert 0 < z.min() and z.max() < 1
-
-
-def test_pixel_norm_is_a_layer_norm_over_each_pixels_channels():
-    """An independent implementation: torch's layer norm over the channels of every pixel,
-    with the same affine map."""
-    norm = PixelNorm(5)
-    with torch.no_grad():
-        norm.weight.normal_(generator=torch.Generator().manual_seed(0))
-        norm.bias.normal_(generator=torch.Generator().manual_seed(1))
-    x = 3 * torch.randn(2, 5, 4, 3, generator=torch.Generator().manual_seed(2)) + 1
-    expected = torch.nn.functional.layer_norm(
-        x.permute(0, 2, 3, 1), (5,), norm.weight.flatten(), norm.bias.flatten(), norm.eps
-    ).permute(0, 3, 1, 2)
-    torch.testing.assert_close(norm(x), expected, atol=1e-5, rtol=1e-5)
-    assert "average" not in norm.state_dict()  # checkpoints keep their keys

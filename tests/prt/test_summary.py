@@ -148,6 +148,32 @@ def test_the_shipped_variant_needs_half_the_paper_forms_radiance_error(shadowing
     assert "<= 0.5 x DeepPRT's (0.1000)" in rows.check.iloc[0]
 
 
+@pytest.mark.parametrize(("int8_l1", "met"), [(0.044, True), (0.0441, False)])
+def test_the_int8_graph_keeps_its_radiance_error_within_the_ratio_of_the_float32_graphs(
+    int8_l1, met
+):
+    table = _metrics(0.10, 0.04)
+    for material in ("diffuse", "glossy"):
+        values = {f"rel_l1_radiance_{material}": int8_l1}
+        rows = tidy_rows("prt", "obj", "DeepPRT shadowing int8", "test", values)
+        rows += tidy_rows(
+            "prt", "obj", "DeepPRT shadowing int8", "timing", {"equal_quality_speedup": 25.0}
+        )
+        table = pd.concat([table, pd.DataFrame(rows)])
+    assert threshold("prt", "int8_rel_l1_ratio") == 1.1
+    found = target_frame(table, [], "DeepPRT shadowing")
+    int8 = found[found.check.str.startswith("DeepPRT shadowing int8 rel_l1_radiance")]
+    assert len(int8) == 2 and int8.met.tolist() == [met] * 2
+    assert "<= 1.1 x the float32 graph's (0.0400)" in int8.check.iloc[0]
+    speed = found[found.check.str.startswith("DeepPRT shadowing int8 equal-quality")]
+    assert speed.measured.tolist() == [25.0] and speed.met.tolist() == [True]
+
+
+def test_no_int8_targets_without_an_int8_graph():
+    found = target_frame(_metrics(0.10, 0.04), [], "DeepPRT shadowing")
+    assert not found.check.str.contains("int8").any()
+
+
 @pytest.mark.parametrize(("floor", "noted"), [(0.049, False), (0.051, True)])
 def test_a_radiance_target_below_the_references_own_noise_says_so(floor, noted):
     table = _metrics(0.10, 0.04)

@@ -244,6 +244,7 @@ rule prt_train:
     output:
         checkpoint="results/prt/{object}/variants/{variant}_{material}.pt",
         onnx="results/prt/{object}/variants/{variant}_{material}.onnx",
+        int8="results/prt/{object}/variants/{variant}_{material}_int8.onnx",
         loss="results/prt/{object}/variants/{variant}_{material}_loss.csv",
         tensorboard="results/tensorboard/prt/{object}_{variant}_{material}/run.json",
     log:
@@ -314,6 +315,7 @@ rule prt_evaluate:
         unpack(prt_evaluation_files),
         deepprt=prt_variant_files("pt"),
         onnx=prt_variant_files("onnx"),
+        int8=prt_variant_files("int8.onnx"),
         momoprt=expand(
             "results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS
         ),

@@ -28,6 +28,7 @@ from torch import nn
 from torch.nn.utils.fusion import fuse_conv_bn_eval
 
 from neurender.io import atomic_path
+from neurender.nn.norms import centre_pixel_norm_inputs
 from neurender.timing import timed
 
 log = logging.getLogger(__name__)
@@ -53,12 +54,14 @@ def fold_batch_norms(model: nn.Module) -> nn.Module:
 
 
 def prepare_for_inference(model: nn.Module) -> nn.Module:
-    """Eval-mode, batch-norm-folded, channels-last copy of ``model``.
+    """Eval-mode, batch-norm-folded, channels-last copy of ``model`` (its pixel norms'
+    means folded too, :func:`neurender.nn.norms.centre_pixel_norm_inputs`).
 
     It computes ``model(x)`` for inputs ``(B, C, H, W)`` in either memory layout (pass
     channels-last inputs to skip a conversion).
     """
-    return fold_batch_norms(model).to(memory_format=torch.channels_last)
+    folded = centre_pixel_norm_inputs(fold_batch_norms(model))
+    return folded.to(memory_format=torch.channels_last)
 
 
 #: ONNX opset of the exported files (ONNX Runtime 1.14 and later run it).

@@ -25,6 +25,14 @@ MATERIALS = ("diffuse", "glossy")
 #: (:mod:`neurender.prt.model`); ``shadowing``, the analytic unshadowed transfer plus a
 #: local network for what shadowing removes (:mod:`neurender.prt.local_model`).
 VARIANTS = {"paper": "DeepPRT", "shadowing": "DeepPRT shadowing"}
+
+
+def int8_name(model: str) -> str:
+    """The tables' name of a variant's int8 graph (its convolutions in int8, scored and
+    timed as a network of its own) from the variant's name ``model``."""
+    return f"{model} int8"
+
+
 #: Datasets of paper section 4.2.2 (Fig. 6), built on the head's geometry image: a linear
 #: shape space with a plane, and the head without one expression in training.
 EXPERIMENTS = ("head_linear", "head_excluded")

@@ -30,6 +30,7 @@ from neurender.prt import (
     VARIANTS,
     figures,
     frames,
+    int8_name,
     noise,
     summary,
     unseen,
@@ -40,7 +41,7 @@ from neurender.prt.data_jobs import split_frames
 from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
 from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
 from neurender.prt.local_model import LocalConfig
-from neurender.prt.model import DeepPRT, export_deepprt
+from neurender.prt.model import DeepPRT, export_deepprt, export_int8
 from neurender.prt.momoprt import MoMoPRT
 from neurender.prt.scores import aggregate, score_frames
 from neurender.prt.training import train_deepprt, train_local
@@ -88,7 +89,8 @@ def prt_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One network of one variant (``params["variant"]``, :data:`neurender.prt.VARIANTS`)
     trained on an object's train split (val for model selection), and the selected
-    network exported as its ONNX file: ``paper``, the paper's U-Net
+    network exported as its ONNX file (and in int8, ``int8``: its convolutions calibrated
+    on the train split, :func:`~neurender.prt.model.export_int8`): ``paper``, the paper's U-Net
     (:func:`~neurender.prt.training.train_deepprt`); ``shadowing``, the unshadowed
     transfer plus a local network (:func:`~neurender.prt.training.train_local`; glossy
     reads the SH ``light``)."""
@@ -119,6 +121,7 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
             f"prt_train: variant {params['variant']!r}; expected one of {list(VARIANTS)}"
         )
     export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
+    export_int8(outputs["onnx"], train_split, outputs["int8"])
 
 
 def _variant_files(
@@ -158,23 +161,27 @@ def _evaluation_scores(
 
 def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every variant's networks (``params["variants"]``, named by
-    :data:`neurender.prt.VARIANTS`), MoMoPRT and the noise floor scored on the val and
-    test frames of one object (:mod:`neurender.prt.scores`), each variant timed
+    :data:`neurender.prt.VARIANTS`) and their int8 graphs (:func:`neurender.prt.int8_name`,
+    run by ONNX Runtime on the CPU), MoMoPRT and the noise floor scored on the val and
+    test frames of one object (:mod:`neurender.prt.scores`), each network timed
     (:mod:`neurender.prt.equal_quality`; each network's times and ONNX file are its
     ``deployment`` rows) with its training budget (``epochs_<material>``), and Fig. 7."""
     name, variants = params["object"], params["variants"]
     seq = io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
     checkpoints = _variant_files(variants, inputs["deepprt"])
-    onnx_files = _variant_files(variants, inputs["onnx"])
-    nets = {
-        (VARIANTS[v], m): DeepPRT(path, onnx_files[v, m], params["device"], threads)
-        for (v, m), path in checkpoints.items()
-    }
+    graphs = {"onnx": VARIANTS, "int8": {v: int8_name(m) for v, m in VARIANTS.items()}}
+    nets, files = {}, {}
+    for key, names in graphs.items():
+        # The int8 graph runs on the CPU (ONNX Runtime) whatever the device.
+        device, pytorch = (params["device"], True) if key == "onnx" else ("cpu", False)
+        for (v, m), onnx_file in _variant_files(variants, inputs[key]).items():
+            files[names[v], m] = onnx_file
+            nets[names[v], m] = DeepPRT(checkpoints[v, m], onnx_file, device, threads, pytorch)
     scores, panels, test = _evaluation_scores(inputs, params, seq, light, nets, threads)
     io.write_csv(outputs["frames"], scores)
     engine_s = {key: inference_seconds(net, test) for key, net in nets.items()}
-    models = [VARIANTS[v] for v in variants]
+    models = [names[v] for v in variants for names in graphs.values()]
     timing = timing_rows(
         name,
         {model: nets[model, "diffuse"] for model in models},
@@ -186,22 +193,24 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
         scores,
     )
     deployment, budget = [], []
-    for v, model in zip(variants, models, strict=True):
-        deployment += deployment_rows(
-            name,
-            {m: nets[model, m] for m in MATERIALS},
-            {m: onnx_files[v, m] for m in MATERIALS},
-            {m: engine_s[model, m] for m in MATERIALS},
-            test,
-            threads,
-            model,
-        )
-        epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
-        budget += tidy_rows("prt", name, model, "test", epochs)
+    for v in variants:
+        for model in (names[v] for names in graphs.values()):
+            deployment += deployment_rows(
+                name,
+                {m: nets[model, m] for m in MATERIALS},
+                {m: files[model, m] for m in MATERIALS},
+                {m: engine_s[model, m] for m in MATERIALS},
+                test,
+                threads,
+                model,
+            )
+            epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
+            budget += tidy_rows("prt", name, model, "test", epochs)
     io.write_csv(outputs["deployment"], deployment_table(deployment))
     table = pd.concat([aggregate(scores), timing, pd.DataFrame(budget)], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
-    figures.prediction_figure(name, panels, outputs["figure"])
+    float32 = {k: p for k, p in panels.items() if k[0] not in graphs["int8"].values()}
+    figures.prediction_figure(name, float32, outputs["figure"])
 
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
@@ -236,7 +245,7 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     unseen = io.read_csv(inputs["unseen"])
     io.write_csv(outputs["targets"], summary.target_frame(table, experiments, shipped, unseen))
     figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
-    models = [VARIANTS[v] for v in variants]
+    models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
     figures.equal_quality_figure(
         table, params["equal_quality_directions"], models, outputs["equal_quality"]
     )

@@ -43,6 +43,7 @@ import torch.nn.functional as F  # noqa: N812 - the usual name
 from torch import nn
 
 from neurender import train
+from neurender.nn.norms import PixelNorm
 from neurender.nn.unet import ResUNet
 from neurender.prt import disk_occlusion, unshadowed
 
@@ -82,30 +83,6 @@ class LocalConfig:
     def out_channels(self) -> int:
         k = self.n_bands**2
         return k if self.material == "diffuse" else 3 * k
-
-
-class PixelNorm(nn.Module):
-    """Layer norm over the channels of each pixel alone (with a learnt affine map).
-
-    Unlike batch or group norm it uses no statistics over the image, so an output pixel
-    depends only on its receptive field (a local rule stays local). The channel means are
-    1x1 convolutions: ONNX Runtime runs them several times faster than a mean over the
-    channel axis.
-    """
-
-    def __init__(self, channels: int, eps: float = 1e-5):
-        super().__init__()
-        self.weight = nn.Parameter(torch.ones(1, channels, 1, 1))
-        self.bias = nn.Parameter(torch.zeros(1, channels, 1, 1))
-        self.eps = eps
-        average = torch.full((1, channels, 1, 1), 1.0 / channels)
-        self.register_buffer("average", average, persistent=False)
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """``(B, C, H, W) -> (B, C, H, W)``."""
-        centred = x - F.conv2d(x, self.average)
-        var = F.conv2d(centred * centred, self.average)
-        return centred * torch.rsqrt(var + self.eps) * self.weight + self.bias
 
 
 class DilatedNet(nn.Module):

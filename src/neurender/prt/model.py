@@ -19,12 +19,20 @@ from torch import nn
 
 from neurender import train
 from neurender.devices import resolve_device
-from neurender.nn.inference import OnnxNetwork, export_onnx, prepare_for_inference
+from neurender.nn.inference import (
+    OnnxNetwork,
+    export_onnx,
+    prepare_for_inference,
+    quantize_convolutions,
+)
 from neurender.nn.unet import ResUNet, count_parameters
 from neurender.prt.frames import Split
 from neurender.prt.local_model import load_local
 
 log = logging.getLogger(__name__)
+
+#: Training frames whose activation ranges calibrate an int8 graph (:func:`export_int8`).
+CALIBRATION_FRAMES = 32
 
 
 def raw_inputs(split: Split) -> np.ndarray:
@@ -142,7 +150,8 @@ class DeepPRT:
 
     It runs the exported ONNX file with ONNX Runtime when one is given and the device is the
     CPU (the faster engine there), PyTorch otherwise; ``engines`` holds both on the CPU so
-    they can be timed side by side.
+    they can be timed side by side. ``pytorch=False`` leaves PyTorch out, for a file that
+    computes something else than the checkpoint's graph (its int8 form, :func:`export_int8`).
     """
 
     def __init__(
@@ -151,12 +160,17 @@ class DeepPRT:
         onnx_file: str | Path | None = None,
         device: str = "auto",
         threads: int = 1,
+        pytorch: bool = True,
     ):
         self.device = resolve_device(device, threads)
         module = load_transfer_module(checkpoint)
         self.parameters = count_parameters(module)
         self.module = prepare_for_inference(module).to(self.device)
-        self.engines = {"pytorch": self._run_pytorch}
+        self.engines = {"pytorch": self._run_pytorch} if pytorch else {}
+        if not pytorch and (onnx_file is None or self.device.type != "cpu"):
+            raise ValueError(
+                f"DeepPRT({checkpoint}): without PyTorch it needs an ONNX file and the CPU"
+            )
         if onnx_file is not None and self.device.type == "cpu":
             self.engines["onnxruntime"] = OnnxNetwork(onnx_file, threads)
         self.engine = "onnxruntime" if "onnxruntime" in self.engines else "pytorch"
@@ -181,3 +195,13 @@ def export_deepprt(checkpoint: str | Path, example: Split, out: str | Path) -> N
     net = DeepPRT(checkpoint, device="cpu")
     x = raw_inputs(example)
     export_onnx(net.module, torch.from_numpy(x[np.arange(2) % len(x)]), out, rtol=1e-4)
+
+
+def export_int8(source: str | Path, train_split: Split, out: str | Path) -> None:
+    """Write the int8 form of a shipped float32 graph ``source`` (:func:`export_deepprt`):
+    its convolutions int8 (:func:`neurender.nn.inference.quantize_convolutions`),
+    calibrated one frame at a time on the first :data:`CALIBRATION_FRAMES` frames of
+    ``train_split``; same inputs and outputs. An approximation: the evaluation scores it
+    as a network of its own."""
+    x = raw_inputs(train_split)[:CALIBRATION_FRAMES]
+    quantize_convolutions(source, out, [{"x": frame[None]} for frame in x])

@@ -9,7 +9,7 @@ import pandas as pd
 
 from neurender import io, train
 from neurender.nn.unet import count_parameters
-from neurender.prt import MATERIALS, VARIANTS, noise, unseen_scores
+from neurender.prt import MATERIALS, VARIANTS, int8_name, noise, unseen_scores
 from neurender.prt.model import build_network
 from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
 
@@ -100,7 +100,8 @@ def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
     ``rel_l1_radiance`` at most the target fraction of the paper form's (noted where that
     is below the score of an independent ray-traced estimate at the reference's own
     direction count, :func:`neurender.prt.noise.reference_quality_label`); the
-    equal-quality speed ratio at least its target."""
+    equal-quality speed ratio at least its target, of the float32 graph and of its int8
+    graph (where the table has it, with that graph's :func:`int8_targets`)."""
     ssim_target = threshold("prt", "ssim")
     speed_target = threshold("prt", "equal_quality_speedup")
     versus = threshold("prt", "rel_l1_vs_paper")
@@ -133,12 +134,37 @@ def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
                         " reference: not measurable against this reference)"
                     )
                 rows.append(Target(dataset, check, ours, bool(ours <= versus * paper)))
-        v = get(model, "timing", "equal_quality_speedup")
-        bound = get(model, "timing", "equal_quality_lower_bound") == 1
-        # A lower bound that meets the target is a pass: the true ratio is at least it.
-        note = " (a lower bound: its SSIM is above every ray-traced count)" if bound else ""
-        check = f"{model} equal-quality speed ratio >= {speed_target:g}x{note}"
-        rows.append(Target(dataset, check, v, bool(v >= speed_target)))
+        for network in (model, int8_name(model)):
+            v = get(network, "timing", "equal_quality_speedup")
+            if network != model and math.isnan(v):
+                continue  # a table from before the int8 graphs
+            bound = get(network, "timing", "equal_quality_lower_bound") == 1
+            # A lower bound that meets the target is a pass: the true ratio is at least it.
+            note = " (a lower bound: its SSIM is above every ray-traced count)" if bound else ""
+            check = f"{network} equal-quality speed ratio >= {speed_target:g}x{note}"
+            rows.append(Target(dataset, check, v, bool(v >= speed_target)))
+        rows += int8_targets(metrics_table, dataset, model)
+    return rows
+
+
+def int8_targets(metrics_table: pd.DataFrame, dataset: str, model: str) -> list[Target]:
+    """The int8 graph's test ``rel_l1_radiance`` (diffuse and glossy) of the variant
+    ``model`` on ``dataset`` at most ``int8_rel_l1_ratio`` times the float32 graph's (no
+    rows where the table holds no int8 graph)."""
+    most = threshold("prt", "int8_rel_l1_ratio")
+    rows = []
+    for material in MATERIALS:
+        metric = f"rel_l1_radiance_{material}"
+        ours, float32 = (
+            lookup(metrics_table, dataset=dataset, model=m, split="test", metric=metric)
+            for m in (int8_name(model), model)
+        )
+        if math.isnan(ours):
+            continue
+        check = (
+            f"{int8_name(model)} {metric} on test <= {most:g} x the float32 graph's ({float32:.4f})"
+        )
+        rows.append(Target(dataset, check, ours, bool(ours <= most * float32)))
     return rows
 
 

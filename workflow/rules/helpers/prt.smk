@@ -107,10 +107,10 @@ def prt_ship_params(wildcards):
 
 
 def prt_variant_files(kind, objects=None, materials=PRT_MATERIALS):
-    """The ``kind`` file (``pt``, ``onnx`` or ``loss.csv``) of every trained variant, per
-    object (``objects``; ``None``: the rule's own ``{object}`` wildcard) and material, in
-    the order object, variant, material."""
-    suffix = "_loss.csv" if kind == "loss.csv" else f".{kind}"
+    """The ``kind`` file (``pt``, ``onnx``, ``int8.onnx`` or ``loss.csv``) of every trained
+    variant, per object (``objects``; ``None``: the rule's own ``{object}`` wildcard) and
+    material, in the order object, variant, material."""
+    suffix = f".{kind}" if kind in ("pt", "onnx") else f"_{kind}"
     # The rule's own wildcard stays a wildcard: expand() turns {{object}} into {object}.
     where = {} if objects is None else {"object": objects}
     folder = "{{object}}" if objects is None else "{object}"
