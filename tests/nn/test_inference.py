@@ -5,11 +5,13 @@ from torch import nn
 
 from neurender.nn.inference import (
     OnnxNetwork,
+    channel_average_convolutions,
     export_onnx,
     fold_batch_norms,
     prepare_for_inference,
     quantize_convolutions,
 )
+from neurender.nn.norms import PixelNorm
 from neurender.nn.unet import ResUNet
 
 
@@ -170,3 +172,31 @@ def test_int8_needs_calibration_and_leaves_only_its_file(exported, tmp_path, mon
         quantize_convolutions(path, tmp_path / "none.onnx", [])
     _int8_unet(tmp_path, exported)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["unet.int8.onnx"]
+
+
+def test_int8_keeps_the_channel_averages_float_and_quantizes_the_learnt_kernels(tmp_path):
+    import onnx
+
+    torch.manual_seed(0)
+    model = nn.Sequential(nn.Conv2d(3, 8, 3, padding=1), PixelNorm(8), nn.Conv2d(8, 2, 1))
+    with torch.no_grad():
+        # A 1x1 learnt kernel of equal weights is not an average: it has a bias.
+        model[2].weight.fill_(0.25)
+    path = tmp_path / "norm.onnx"
+    export_onnx(prepare_for_inference(model), torch.randn(2, 3, 8, 8), path)
+    nodes = onnx.load(str(path)).graph.node
+    averages = channel_average_convolutions(onnx.load(str(path)))
+    # PixelNorm's mean of squares alone: its channel mean is folded into the first kernel.
+    assert len(averages) == 1 and sum(n.op_type == "Conv" for n in nodes) == 3
+    rng = np.random.default_rng(0)
+    feeds = [{"x": rng.standard_normal((1, 3, 8, 8), np.float32)} for _ in range(8)]
+    target = tmp_path / "norm.int8.onnx"
+    quantize_convolutions(path, target, feeds)
+    graph = onnx.load(str(target)).graph
+    kernels = [
+        i for i in graph.initializer if i.data_type == onnx.TensorProto.INT8 and len(i.dims) == 4
+    ]
+    assert sorted(tuple(k.dims) for k in kernels) == [(2, 8, 1, 1), (8, 3, 3, 3)]
+    average = next(n for n in graph.node if n.name == averages[0])
+    producers = {o: n.op_type for n in graph.node for o in n.output}
+    assert producers[average.input[0]] != "DequantizeLinear"  # float32 in, not int8

@@ -275,6 +275,7 @@ rule prt_ship:
     output:
         checkpoint="results/prt/{object}/deepprt_{material}.pt",
         onnx="results/prt/{object}/deepprt_{material}.onnx",
+        int8="results/prt/{object}/deepprt_{material}_int8.onnx",
     log:
         "results/logs/prt_ship/{object}_{material}.log",
     benchmark:
@@ -356,6 +357,11 @@ rule prt_model_summary:
         losses=prt_variant_files("loss.csv", PRT_OBJECTS),
         shipped=expand(
             "results/prt/{object}/deepprt_{material}.onnx",
+            object=PRT_OBJECTS,
+            material=PRT_MATERIALS,
+        ),
+        shipped_int8=expand(
+            "results/prt/{object}/deepprt_{material}_int8.onnx",
             object=PRT_OBJECTS,
             material=PRT_MATERIALS,
         ),

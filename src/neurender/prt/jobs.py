@@ -215,10 +215,10 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
-    too), every variant's compression rows and loss curves, the shipped files' sizes, the
-    equal-quality figure, and the targets of the shipped variant (``params["shipped"]``),
-    the unseen-deformation benchmark's (``unseen``, :mod:`neurender.prt.unseen_scores`)
-    too."""
+    too), every variant's compression rows and loss curves, the shipped files' sizes
+    (their int8 forms' too, ``shipped_int8``), the equal-quality figure, and the targets
+    of the shipped variant (``params["shipped"]``), the unseen-deformation benchmark's
+    (``unseen``, :mod:`neurender.prt.unseen_scores`) too."""
     names, variants = params["objects"], params["variants"]
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
@@ -236,10 +236,14 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
         params["n_bands"],
     )
     shipped = VARIANTS[params["shipped"]]
-    shipped_files = dict(
-        zip([(o, m) for o in names for m in MATERIALS], inputs["shipped"], strict=True)
+    pairs = [(o, m) for o in names for m in MATERIALS]
+    compression = pd.concat(
+        [compression]
+        + [
+            summary.shipped_rows(dict(zip(pairs, inputs[key], strict=True)), model)
+            for key, model in (("shipped", shipped), ("shipped_int8", int8_name(shipped)))
+        ]
     )
-    compression = pd.concat([compression, summary.shipped_rows(shipped_files, shipped)])
     io.write_csv(outputs["compression"], compression.reset_index(drop=True))
     experiments = [io.read_csv(p) for p in inputs["experiments"]]
     unseen = io.read_csv(inputs["unseen"])

@@ -119,9 +119,10 @@ def prt_variant_files(kind, objects=None, materials=PRT_MATERIALS):
 
 
 def prt_shipped_files(wildcards):
-    """The shipped variant's checkpoint and ONNX file of one object and material."""
+    """The shipped variant's checkpoint, ONNX file and int8 ONNX file of one object and
+    material."""
     base = f"results/prt/{wildcards.object}/variants/{PRT_SHIPPED}_{wildcards.material}"
-    return {"checkpoint": f"{base}.pt", "onnx": f"{base}.onnx"}
+    return {"checkpoint": f"{base}.pt", "onnx": f"{base}.onnx", "int8": f"{base}_int8.onnx"}
 
 
 def prt_momoprt_params(wildcards):
