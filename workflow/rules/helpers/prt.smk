@@ -122,7 +122,11 @@ def prt_shipped_files(wildcards):
     """The shipped variant's checkpoint, ONNX file and int8 ONNX file of one object and
     material."""
     base = f"results/prt/{wildcards.object}/variants/{PRT_SHIPPED}_{wildcards.material}"
-    return {"checkpoint": f"{base}.pt", "onnx": f"{base}.onnx", "int8": f"{base}_int8.onnx"}
+    return {
+        "checkpoint": f"{base}.pt",
+        "onnx": f"{base}.onnx",
+        "int8": f"{base}_int8.onnx",
+    }
 
 
 def prt_momoprt_params(wildcards):
