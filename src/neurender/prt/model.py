@@ -163,14 +163,16 @@ class DeepPRT:
         pytorch: bool = True,
     ):
         self.device = resolve_device(device, threads)
-        module = load_transfer_module(checkpoint)
-        self.parameters = count_parameters(module)
-        self.module = prepare_for_inference(module).to(self.device)
-        self.engines = {"pytorch": self._run_pytorch} if pytorch else {}
         if not pytorch and (onnx_file is None or self.device.type != "cpu"):
             raise ValueError(
                 f"DeepPRT({checkpoint}): without PyTorch it needs an ONNX file and the CPU"
             )
+        module = load_transfer_module(checkpoint)
+        self.parameters = count_parameters(module)
+        self.engines = {}
+        if pytorch:  # prepared only where it runs
+            self.module = prepare_for_inference(module).to(self.device)
+            self.engines["pytorch"] = self._run_pytorch
         if onnx_file is not None and self.device.type == "cpu":
             self.engines["onnxruntime"] = OnnxNetwork(onnx_file, threads)
         self.engine = "onnxruntime" if "onnxruntime" in self.engines else "pytorch"
