@@ -79,10 +79,8 @@ def importance(px, small, samples, seed=0):
     )
 
 
-def fast(px, coefficients, prefiltered, lights):
-    return pf.prefiltered_shading(
-        px["normals"], px["view_dirs"], px["alpha"], coefficients, prefiltered, lights
-    )
+def fast(px, light: pf.MapLighting):
+    return pf.prefiltered_shading(px["normals"], px["view_dirs"], px["alpha"], light)
 
 
 def main() -> None:
@@ -95,7 +93,7 @@ def main() -> None:
     px = scene(args.seed)
     env = maps(args.seed)["sunlit 0"]
     small = environments.resize_latlong(env, COARSE_HEIGHT)
-    lighting32 = [x.float() for x in pf.lighting(env, small)]
+    lighting32 = pf.MapLighting(*(x.float() for x in pf.lighting(env, small)))
     pf.albedo_table()  # built once per process, not per image
     px32 = {k: v.float() for k, v in px.items()}
     cases = {
@@ -103,7 +101,7 @@ def main() -> None:
             importance,
             (px, torch.from_numpy(small), SAMPLES),
         ),
-        "prefiltered (per image)": (fast, (px32, *lighting32)),
+        "prefiltered (per image)": (fast, (px32, lighting32)),
         "prefiltered lighting (per map)": (pf.lighting, (env, small)),
     }
     rows = []
@@ -142,7 +140,7 @@ def main() -> None:
         }
         estimates = {
             "importance (64 samples)": importance(px, torch.from_numpy(small), SAMPLES, seed=2),
-            "prefiltered": fast(px, *pf.lighting(image, small)),
+            "prefiltered": fast(px, pf.lighting(image, small)),
         }
         for (estimator, est), (reference, ref) in itertools.product(
             estimates.items(), references.items()

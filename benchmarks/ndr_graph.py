@@ -4,7 +4,9 @@ nice -n 15 python benchmarks/ndr_graph.py benchmarks/results/ndr_graph
 
 The default config's network (variant ``ndr``, widths 16 32 64 128, SH layers 64; its
 weights at initialisation: the time does not depend on them) at 64 x 64, one random object
-of the data under a real-world-like map. Three ONNX files, each checked against PyTorch
+of the data under a real-world-like map, its sun and six lights without power: 7 lights, as
+many as the median test map of the default config has bright texels (a frame's shading
+grows with them; :func:`neurender.ndr.prefiltered.bright_lights`). Three ONNX files, each checked against PyTorch
 by :func:`neurender.nn.inference.export_onnx`: the prefiltered coarse shading alone, the
 network alone (:class:`neurender.ndr.deploy.NDRGraph`, what ``ndr_deploy`` ships today) and
 the two in one graph. Each also as an int8 graph (``... int8 convolutions``): its
@@ -37,7 +39,7 @@ from neurender.ndr import prefiltered as pf
 from neurender.ndr.deploy import INPUTS as NETWORK_INPUTS
 from neurender.ndr.deploy import NDRGraph, graph_groups
 from neurender.ndr.model import NDRModel
-from neurender.ndr.shipped import INPUTS, ShadingPart, ShippedNDR, gbuffer_groups
+from neurender.ndr.shipped import DYNAMIC_AXES, INPUTS, ShadingPart, ShippedNDR, gbuffer_groups
 from neurender.ndr.variants import VARIANTS
 from neurender.nn.inference import (
     OnnxNetwork,
@@ -49,6 +51,8 @@ from neurender.provenance import git_state
 from neurender.timing import hardware, timed
 
 WIDTH, DISTANCE, FOV, ENV_HEIGHT, COARSE_HEIGHT = 64, 3.9, 30.0, 128, 16
+#: Lights of the timed frame (see main).
+LIGHTS = 7
 ROOT = Path(__file__).resolve().parents[1]
 #: Rounds of timing per thread count (the least loaded is kept).
 ROUNDS = 3
@@ -80,10 +84,13 @@ def main() -> None:
     shipped = ShippedNDR(model, DISTANCE, FOV, WIDTH)
     g = buffers(args.seed)
     env = environments.sunlit_environment(np.random.default_rng(args.seed), ENV_HEIGHT)
-    coefficients, maps, lights = pf.lighting(env, environments.resize_latlong(env, COARSE_HEIGHT))
-    sh, maps, lights = coefficients.reshape(1, -1).float(), maps[None].float(), lights[None].float()
+    light = pf.lighting(env, environments.resize_latlong(env, COARSE_HEIGHT))
+    # As many lights as the median test map of the default config has bright texels (its
+    # sunlit map has one): a frame's time grows with them.
+    lights = pf.stack_lights([light.lights, pf.no_lights(LIGHTS)])[:1, :LIGHTS]
     gbuffers = torch.cat([g[k] for k in gbuffer_groups(model)], 1)
-    inputs = (gbuffers, sh, maps, lights)
+    per_map = (light.coefficients.reshape(1, -1), light.irradiance[None], light.cells[None])
+    inputs = tuple(x.float() for x in (gbuffers, *per_map, lights))
     with torch.inference_mode():
         batch = shipped.batch(*inputs)
     network_inputs = (torch.cat([batch[k] for k in graph_groups(model)], 1), batch["light"])
@@ -99,7 +106,13 @@ def main() -> None:
             files[name] = Path(tmp) / f"{k}.onnx"
             pair = tuple(torch.cat([t, t]) for t in x)  # the export needs a batch of 2
             errors[name] = export_onnx(
-                module, pair, files[name], atol=1e-3, rtol=1e-4, input_names=names
+                module,
+                pair,
+                files[name],
+                atol=1e-3,
+                rtol=1e-4,
+                input_names=names,
+                dynamic_axes=DYNAMIC_AXES,
             )
         # The int8 graphs, each against its float32 graph's output on the same frame.
         int8 = {}

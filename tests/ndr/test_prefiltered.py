@@ -13,8 +13,8 @@ from neurender.ndr import prefiltered as pf
 from neurender.ndr.shading import coarse_shading
 from tests.ndr.test_shading import _ggx_albedo_by_quadrature
 
-#: No lights (every slot without power), as :func:`pf.bright_lights` gives for a map
-#: without bright texels.
+#: No lights (one without power), as :func:`pf.bright_lights` gives for a map without
+#: bright texels.
 NO_LIGHTS = pf.bright_lights(np.ones((8, 16, 3)), np.ones((4, 8, 3)))[0]
 
 
@@ -25,6 +25,12 @@ def _normals(count: int, seed: int) -> torch.Tensor:
     )
 
 
+def _diffuse(normals: torch.Tensor, coefficients: torch.Tensor, lights_: torch.Tensor):
+    """``S_D`` ``(P, 3)`` at ``normals`` ``(P, 3)`` of a map's SH and lights."""
+    irradiance = pf.diffuse_polynomial(coefficients, lights_)
+    return pf.diffuse_shading(normals.T, irradiance, lights_).T
+
+
 def test_constant_map_gives_unit_diffuse_shading():
     """White furnace: the SH of a unit map is ``2 sqrt(pi)`` in ``y_0^0`` alone, and
     ``S_D`` is exactly 1 at every normal; from a projected 128 x 256 map to its
@@ -32,11 +38,27 @@ def test_constant_map_gives_unit_diffuse_shading():
     n = _normals(500, 0)
     exact = torch.zeros(25, 3, dtype=torch.float64)
     exact[0] = 2 * math.sqrt(math.pi)
-    np.testing.assert_allclose(pf.diffuse_shading(n.T, exact, NO_LIGHTS).T.numpy(), 1.0, atol=1e-12)
+    np.testing.assert_allclose(_diffuse(n, exact, NO_LIGHTS).numpy(), 1.0, atol=1e-12)
     projected = torch.from_numpy(sh.project_latlong(np.ones((128, 256, 3)), 5))
-    np.testing.assert_allclose(
-        pf.diffuse_shading(n.T, projected, NO_LIGHTS).T.numpy(), 1.0, atol=2e-4
-    )
+    np.testing.assert_allclose(_diffuse(n, projected, NO_LIGHTS).numpy(), 1.0, atol=2e-4)
+
+
+def test_monomial_irradiance_is_the_sh_sum():
+    """The diffuse shading's monomials give exactly the clamped-cosine-convolved SH sum
+    (Ramamoorthi and Hanrahan's ``sum_k A_l c_k Y_k(n) / pi``, written out here), both for
+    the map and for a light's own SH."""
+    c = torch.randn(25, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(11))
+    n = _normals(400, 12)
+    band = [math.isqrt(k) for k in range(25)]
+    zonal = [sh.CLAMPED_COSINE_ZONAL[b] * math.sqrt(4 * math.pi / (2 * b + 1)) for b in band]
+    a = torch.tensor(zonal, dtype=torch.float64) / math.pi
+    expected = sh.eval_sh(n, 5) @ (a[:, None] * c)  # (P, 3)
+    to_monomials, kernel = pf.irradiance_monomials(5)
+    m = torch.stack(pf.monomials(*n.T), -1)  # (P, 18)
+    np.testing.assert_allclose((m @ (to_monomials @ c)).numpy(), expected.numpy(), atol=1e-10)
+    d = n[:5]  # a light's SH part: sum_k a_k Y_k(d) Y_k(n)
+    light = sh.eval_sh(n, 5) @ (a[:, None] * sh.eval_sh(d, 5).T)  # (P, 5)
+    np.testing.assert_allclose((m @ kernel @ m[:5].T).numpy(), light.numpy(), atol=1e-10)
 
 
 def test_linear_map_gives_the_analytic_irradiance():
@@ -48,9 +70,7 @@ def test_linear_map_gives_the_analytic_irradiance():
     coefficients = torch.from_numpy(sh.project_latlong(env, 5))
     n = _normals(300, 1)
     expected = (1.0 + 0.4 * n.numpy() @ d)[:, None] * np.array([1.0, 0.5, 0.25])
-    np.testing.assert_allclose(
-        pf.diffuse_shading(n.T, coefficients, NO_LIGHTS).T.numpy(), expected, atol=1e-3
-    )
+    np.testing.assert_allclose(_diffuse(n, coefficients, NO_LIGHTS).numpy(), expected, atol=1e-3)
 
 
 def test_prefilter_rows_are_normalised_weights_and_level_zero_is_the_map():
@@ -73,11 +93,59 @@ def test_map_lookup_at_texel_centres_reads_the_texels():
         1, 2, 8, 16, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(3)
     )
     dirs = torch.from_numpy(sh.latlong_directions(8, 16)[0]).reshape(1, -1, 3).transpose(1, 2)
-    got = pf._map_lookup(maps, dirs, torch.zeros(1, 128, dtype=torch.float64))
+    cells = pf.corner_cells(maps[0])[None]
+    got = pf._map_lookup(cells, dirs, torch.zeros(1, 128, dtype=torch.float64))
     np.testing.assert_allclose(got[0].T.reshape(8, 16, 3).numpy(), maps[0, 0].numpy(), atol=1e-12)
-    half = pf._map_lookup(maps, dirs, torch.full((1, 128), 0.25, dtype=torch.float64))
+    half = pf._map_lookup(cells, dirs, torch.full((1, 128), 0.25, dtype=torch.float64))
     expected = 0.75 * maps[0, 0] + 0.25 * maps[0, 1]
     np.testing.assert_allclose(half[0].T.reshape(8, 16, 3).numpy(), expected.numpy(), atol=1e-12)
+
+
+def test_map_lookup_wraps_in_azimuth_and_clamps_at_the_poles():
+    """Halfway between the last and the first column (azimuth 0, ``-z``) a read is their
+    mean; between the poles and the first or last row's centre it reads that row alone;
+    a batch reads each image's own maps."""
+    maps = torch.rand(
+        2, 3, 8, 16, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(13)
+    )
+    theta = (torch.tensor([3.0, 0.1, 7.9]) / 8) * math.pi  # rows 2-3, above 0, below 7
+    dirs = torch.stack([torch.zeros(3), theta.cos(), -theta.sin()], 0)[None].double()
+    dirs = dirs.expand(2, -1, -1)
+    cells = torch.stack([pf.corner_cells(m) for m in maps])
+    got = pf._map_lookup(cells, dirs, torch.zeros(2, 3, dtype=torch.float64))  # (2, 3, 3)
+    for b in range(2):
+        first, last = maps[b, 0, :, 0], maps[b, 0, :, -1]
+        expected = torch.stack(
+            [
+                (first[2] + first[3] + last[2] + last[3]) / 4,
+                (first[0] + last[0]) / 2,
+                (first[7] + last[7]) / 2,
+            ]
+        )
+        np.testing.assert_allclose(got[b].T.numpy(), expected.numpy(), atol=1e-12)
+
+
+def test_stacked_lights_add_nothing():
+    """Padding a map's lights to a batch's count (:func:`pf.stack_lights`) leaves both
+    shadings unchanged."""
+    env = environments.sunlit_environment(np.random.default_rng(3), 32)
+    light = pf.lighting(env, environments.resize_latlong(env, 16))
+    one = light.lights
+    padded = pf.stack_lights([one, pf.no_lights(5)])[:1]
+    assert padded.shape == (1, 5, pf.LIGHT_COLUMNS)
+    n = _normals(50, 14)
+    v = torch.nn.functional.normalize(n + 0.5 * _normals(50, 15), dim=-1)
+    alpha = torch.full((50,), 0.3, dtype=torch.float64)
+    table = pf.albedo_table()
+    shaded = [
+        (
+            pf.diffuse_shading(n.T[None], light.irradiance[None], k),
+            pf.specular_shading(n.T[None], v.T[None], alpha[None], light.cells[None], table, k),
+        )
+        for k in (one[None], padded)
+    ]
+    for alone, with_padding in zip(*shaded, strict=True):
+        np.testing.assert_allclose(with_padding.numpy(), alone.numpy(), atol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -92,9 +160,8 @@ def test_constant_map_gives_the_ggx_albedo(cos_v, roughness):
     env = torch.ones(16, 32, 3, dtype=torch.float64)
     coefficients = torch.from_numpy(sh.project_latlong(env.numpy(), 5))
     alpha = torch.tensor([roughness**2], dtype=torch.float64)
-    _, s_s = pf.prefiltered_shading(
-        normals, views, alpha, coefficients, pf.prefilter(env), NO_LIGHTS
-    )
+    light = pf.map_lighting(coefficients, pf.prefilter(env), NO_LIGHTS)
+    _, s_s = pf.prefiltered_shading(normals, views, alpha, light)
     expected = _ggx_albedo_by_quadrature(cos_v, roughness**2)
     np.testing.assert_allclose(s_s.numpy(), expected, rtol=0.01)
 
@@ -105,8 +172,8 @@ def test_batched_shading_is_the_shading_of_each_image():
         lights.procedural_probe("studio", 32),
     ]
     lighting = [pf.lighting(e, environments.resize_latlong(e, 16)) for e in envs]
-    maps = torch.stack([m for _, m, _ in lighting])
-    bright = torch.stack([k for _, _, k in lighting])
+    maps = torch.stack([x.cells for x in lighting])
+    bright = pf.stack_lights([x.lights for x in lighting])
     assert bright[0, :, 3:6].sum() > 0
     n = _normals(200, 4).reshape(2, 100, 3)
     v = torch.nn.functional.normalize(n + 0.7 * _normals(200, 5).reshape(2, 100, 3), dim=-1)
@@ -143,12 +210,12 @@ def test_real_maps_agree_with_the_importance_sampled_reference(map_name, roughne
     else:
         env = lights.procedural_probe(map_name, 128)
     small = environments.resize_latlong(env, 16)
-    coefficients, maps, bright = pf.lighting(env, small)
+    light = pf.lighting(env, small)
     n = _normals(3000, 8)
     n = n[n[:, 2] > 0.05]
     v = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64).expand_as(n)
     alpha = torch.full((len(n),), roughness**2, dtype=torch.float64)
-    fast = pf.prefiltered_shading(n, v, alpha, coefficients, maps, bright)
+    fast = pf.prefiltered_shading(n, v, alpha, light)
     ref = coarse_shading(
         n, v, alpha, torch.from_numpy(small), 256, torch.Generator().manual_seed(9)
     )
@@ -178,10 +245,8 @@ def test_bright_lights_keep_the_power_and_find_the_sun_inside_its_texel():
     env = _sun_map(sun, math.radians(1.5))
     small = environments.resize_latlong(env, 16)
     bright, rest = pf.bright_lights(env, small)
-    assert bright.shape == (pf.LIGHTS, pf.LIGHT_COLUMNS)
-    lit = bright[:, 3:6].sum(-1) > 0
-    assert int(lit.sum()) == 1
-    light = bright[lit][0]
+    assert bright.shape == (1, pf.LIGHT_COLUMNS)
+    light = bright[0]
     angle = math.degrees(math.acos(min(1.0, float(light[0:3] @ torch.from_numpy(sun)))))
     assert angle < 0.25
     assert float(light[6]) == pytest.approx(math.radians(1.5), rel=0.2)
@@ -191,7 +256,8 @@ def test_bright_lights_keep_the_power_and_find_the_sun_inside_its_texel():
     np.testing.assert_allclose(kept, power, rtol=2e-3)
     flat = np.ones((16, 32, 3))
     none, same = pf.bright_lights(flat, flat)
-    assert float(none[:, 3:6].abs().sum()) == 0 and np.array_equal(same.numpy(), flat)
+    assert none.shape == (1, pf.LIGHT_COLUMNS) and float(none[:, 3:6].abs().sum()) == 0
+    assert np.array_equal(same.numpy(), flat)
 
 
 def test_a_sun_is_shaded_as_the_full_map_shades_it():
@@ -208,7 +274,7 @@ def test_a_sun_is_shaded_as_the_full_map_shades_it():
     v = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64).expand_as(n)
     g = torch.Generator().manual_seed(11)
     alpha = (0.2 + 0.8 * torch.rand(len(n), dtype=torch.float64, generator=g)) ** 2
-    fast = pf.prefiltered_shading(n, v, alpha, *pf.lighting(env, small))
+    fast = pf.prefiltered_shading(n, v, alpha, pf.lighting(env, small))
     ref = coarse_shading(
         n, v, alpha, torch.from_numpy(env), 1024, torch.Generator().manual_seed(12)
     )
@@ -239,7 +305,7 @@ def test_the_data_stage_writes_the_prefiltered_shading_when_asked():
         torch.from_numpy(g["normal"][m]).double(),
         torch.from_numpy(g["view_dir"][m]).double(),
         torch.from_numpy(g["roughness"][m]).double() ** 2,
-        *lighting,
+        lighting,
     )
     np.testing.assert_allclose(s_d[m], expected[0].numpy(), rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(s_s[m], expected[1].numpy(), rtol=1e-5, atol=1e-6)

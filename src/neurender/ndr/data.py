@@ -85,11 +85,11 @@ def sample_scene(
     return obj, env, env_name, rng
 
 
-def coarse_lighting(cfg: dict, env: np.ndarray) -> torch.Tensor | tuple[torch.Tensor, torch.Tensor]:
+def coarse_lighting(cfg: dict, env: np.ndarray) -> torch.Tensor | prefiltered.MapLighting:
     """What the coarse shading reads of ``env`` ``(H, 2H, 3)``, made once per map: the map
-    downsampled to ``coarse_height`` rows (``coarse_shading: importance``), or the SH
-    ``(25, 3)`` of ``env`` itself and the downsampled map's GGX-prefiltered copies
-    (``prefiltered``, :func:`neurender.ndr.prefiltered.lighting`)."""
+    downsampled to ``coarse_height`` rows (``coarse_shading: importance``), or the SH of
+    ``env`` itself, the downsampled map's GGX-prefiltered copies and its bright texels as
+    lights (``prefiltered``, :func:`neurender.ndr.prefiltered.lighting`)."""
     small = environments.resize_latlong(env, cfg["coarse_height"])
     if cfg["coarse_shading"] == "prefiltered":
         return prefiltered.lighting(env, small)
@@ -101,7 +101,7 @@ def coarse_maps(
     g: dict[str, np.ndarray],
     env: np.ndarray,
     *key,
-    lighting: torch.Tensor | tuple[torch.Tensor, torch.Tensor] | None = None,
+    lighting: torch.Tensor | prefiltered.MapLighting | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``S_D`` and ``S_S`` ``(W, W, 3)`` float32 of the G-buffers ``g`` under ``env``
     (0 off the object) by the estimator ``coarse_shading`` names, from ``lighting``
@@ -117,7 +117,7 @@ def coarse_maps(
     alpha = torch.from_numpy(g["roughness"].reshape(-1)[m] ** 2)
     if cfg["coarse_shading"] == "prefiltered":
         sd, ss = prefiltered.prefiltered_shading(
-            normals.double(), view_dirs.double(), alpha.double(), *lighting
+            normals.double(), view_dirs.double(), alpha.double(), lighting
         )
     else:
         sd, ss = coarse_shading(

@@ -103,11 +103,9 @@ def sun_check(mi, width: int, spp: int, samples: int, coarse_height: int, seed: 
     for name, bright in (("bright texels", shading.MAX_BRIGHT), ("plain", 0)):
         s_d, _ = _coarse(g, inside, small, samples, seed, max_bright=bright)
         errors[name] = float(np.abs(s_d.numpy() - i_d).mean() / i_d.mean())
-    fast_d = prefiltered.diffuse_shading(
-        torch.from_numpy(g["normal"][inside]).double().T,
-        torch.from_numpy(sh.project_latlong(env, environments.SH_BANDS)),
-        prefiltered.bright_lights(env, small)[0],
-    ).T
+    light = prefiltered.lighting(env, small)
+    normals = torch.from_numpy(g["normal"][inside]).double().T
+    fast_d = prefiltered.diffuse_shading(normals, light.irradiance, light.lights).T
     errors["prefiltered"] = float(np.abs(fast_d.numpy() - i_d).mean() / i_d.mean())
     share = environments.sun_share(env, coarse_height)
     return _within(
@@ -140,7 +138,7 @@ def furnace(
         torch.from_numpy(g["normal"][inside]).double(),
         torch.from_numpy(g["view_dir"][inside]).double(),
         torch.full((int(inside.sum()),), FURNACE_ROUGHNESS**2, dtype=torch.float64),
-        *prefiltered.lighting(env, env[::2, ::2]),
+        prefiltered.lighting(env, env[::2, ::2]),
     )
     fast_rel = abs(float(fast_s.mean()) - float(i_s.mean())) / float(i_s.mean())
     return [

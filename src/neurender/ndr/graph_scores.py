@@ -21,7 +21,7 @@ from neurender.ndr import CALIBRATION_SAMPLES, data, environments, prefiltered
 from neurender.ndr.buffers import NDRDataset, erode
 from neurender.ndr.evaluate import score
 from neurender.ndr.model import NDRModel, compose
-from neurender.ndr.shipped import INPUTS, ShippedNDR, gbuffer_groups
+from neurender.ndr.shipped import DYNAMIC_AXES, INPUTS, ShippedNDR, gbuffer_groups
 from neurender.nn.inference import OnnxNetwork, export_onnx, quantize_convolutions
 
 #: Samples per ONNX Runtime call when a split is scored.
@@ -31,22 +31,19 @@ BATCH = 8
 @torch.no_grad()
 def graph_inputs(
     cfg: dict, model: NDRModel, split: str, index: int, sample: dict[str, torch.Tensor]
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-    """The shipped graph's inputs for sample ``index`` of ``split``: its G-buffers
-    ``(1, C, H, W)`` from ``sample`` (a dataset item, ``(C, H, W)`` per group, its mask as
-    stored: the graph shades what a renderer's raw mask covers), the map's 5-band SH
-    ``(1, 75)``, prefiltered copies ``(1, L, h, 2h, 3)`` and lights ``(1, K, 7)``, made as
-    the data stage makes them for ``prefiltered``."""
+) -> tuple[torch.Tensor, ...]:
+    """The shipped graph's inputs (:data:`neurender.ndr.shipped.INPUTS`) for sample
+    ``index`` of ``split``, float32, batch 1: its G-buffers ``(1, C, H, W)`` from
+    ``sample`` (a dataset item, ``(C, H, W)`` per group, its mask as stored: the graph
+    shades what a renderer's raw mask covers), then the map's lighting as the data stage
+    makes it for ``prefiltered`` (:func:`neurender.ndr.prefiltered.lighting`): its SH
+    ``(1, 75)``, irradiance, corner cells and lights."""
     _, env, _, _ = data.sample_scene(cfg, split, index)
     gbuffers = torch.cat([sample[g][None] for g in gbuffer_groups(model)], 1)
     small = environments.resize_latlong(env, cfg["coarse_height"])
-    coefficients, maps, lights = prefiltered.lighting(env, small)
-    return (
-        gbuffers.float(),
-        coefficients.reshape(1, -1).float(),
-        maps[None].float(),
-        lights[None].float(),
-    )
+    light = prefiltered.lighting(env, small)
+    coefficients = light.coefficients.reshape(1, -1)
+    return tuple(x.float() for x in (gbuffers, coefficients, *(v[None] for v in light[1:])))
 
 
 def export_float32(cfg: dict, model: NDRModel, test: NDRDataset, path: str) -> float:
@@ -57,7 +54,9 @@ def export_float32(cfg: dict, model: NDRModel, test: NDRDataset, path: str) -> f
     shipped = ShippedNDR(cpu, cfg["camera_distance"], cfg["fov"], cfg["width"])
     inputs = graph_inputs(cfg, cpu, "test", 0, test[0])
     pair = tuple(torch.cat([t, t]) for t in inputs)  # a batch of one would fix the batch axis
-    return export_onnx(shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=INPUTS)
+    return export_onnx(
+        shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=INPUTS, dynamic_axes=DYNAMIC_AXES
+    )
 
 
 def export_int8(cfg: dict, model: NDRModel, train: NDRDataset, source: str, path: str) -> None:
@@ -76,14 +75,16 @@ def predict(
 ) -> dict[str, torch.Tensor]:
     """``I_R`` ``(N, 3, H, W)`` of each of ``graphs`` (name -> a shipped graph of ``model``)
     on every sample of ``split`` (``data_``, read without mask erosion); each batch's inputs
-    made once for all of them."""
+    made once for all of them (the maps' lights padded to the batch's most)."""
     out: dict[str, list[torch.Tensor]] = {name: [] for name in graphs}
     for start in range(0, len(data_), BATCH):
         inputs = [
             graph_inputs(cfg, model, split, i, data_[i])
             for i in range(start, min(start + BATCH, len(data_)))
         ]
-        arrays = [torch.cat(parts).numpy() for parts in zip(*inputs, strict=True)]
+        *per_frame, lights = zip(*inputs, strict=True)
+        arrays = [torch.cat(parts).numpy() for parts in per_frame]
+        arrays.append(prefiltered.stack_lights([k[0] for k in lights]).numpy())
         for name, graph in graphs.items():
             out[name].append(torch.from_numpy(graph(*arrays)))
     return {name: torch.cat(parts) for name, parts in out.items()}

@@ -8,7 +8,11 @@ and the GGX shading with Fresnel = 1, ``S_S = integral L(l) D(h) G(v, l) / (4 n.
 * ``S_D`` of the map less its lights (below) from its 5-band SH (the light the NDR stage
   already has, :func:`neurender.ndr.environments.sh_features`, less the lights' own SH):
   the irradiance is the SH convolved with the clamped cosine (Ramamoorthi and Hanrahan
-  2001), a dot product per pixel, clamped at 0.
+  2001), clamped at 0. The clamped cosine has no band 3, so on the unit sphere the
+  irradiance of bands 0 to 4 is a polynomial in the normal's degree-1 and homogeneous
+  degree-4 monomials (:data:`MONOMIALS`, 18): one product per pixel with the map's 18
+  coefficients (:func:`irradiance_monomials`), exactly the SH sum, in a sixth of the
+  graph's nodes.
 * Bright texels as lights (our change): a small sun holds most of a real map's power in
   one texel of the coarse map, which the prefiltered copies smear over 10-20 degrees and
   the SH ring around (without lights ``S_S`` was 20-25 % off under the real-world-like
@@ -39,6 +43,9 @@ first, ``(B, 3, P)`` (as the G-buffers are stored), and inside them a per-pixel 
 its three ``(B, P)`` components: in the shipped graph, ONNX Runtime broadcasts a pixel's
 scalar over a last axis of 3 several times slower than it combines whole images (the
 shading took 3.4 ms a frame pixel-major, 1.5 ms so; ``benchmarks/results/ndr_graph.csv``).
+A map has as many lights as bright texels (:func:`bright_lights`, at most :data:`LIGHTS`;
+the lights axis of the shipped graph is dynamic): the lights' share of a frame grows with
+their number, as a real-time renderer's does, and no frame pays for empty slots.
 Clamps take float bounds: torch 2.x's ONNX exporter writes a float tensor's ``clamp(0,
 1)`` with int bounds as a ``Clip`` whose bound inputs exist nowhere in the graph (ONNX
 Runtime refuses the file).
@@ -48,6 +55,8 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -68,32 +77,46 @@ SUPERSAMPLE = 4
 ROW_CHUNK = 256
 #: ``n.v`` of the table's first column (the albedo of a grazing view is 0 for rough GGX).
 MIN_COS = 1e-3
-#: Light slots of :func:`bright_lights` (unused slots carry no power): as many texels as
-#: the importance-sampled estimator samples explicitly. (8 would be as accurate on the
-#: benchmark maps, which have 1 to 9 bright texels, and the shipped graph's shading twice
-#: as fast; trained with 8 and a smaller U-Net, NDR was worse under the real-world-like
-#: maps and still below 30x: benchmarks/results/ndr_coarse_shading_runs.csv.)
+#: At most this many lights per map (:func:`bright_lights`): as many texels as the
+#: importance-sampled estimator samples explicitly. (With at most 8, and a smaller U-Net,
+#: NDR was worse under the real-world-like maps: benchmarks/results/ndr_coarse_shading_runs.csv.)
 LIGHTS = MAX_BRIGHT
 #: A light's row: unit direction (3), power per RGB channel (radiance x solid angle, 3),
 #: angular radius in radians (1).
 LIGHT_COLUMNS = 7
+#: Exponents ``(a, b, c)`` of the monomials ``x^a y^b z^c`` of a unit normal that
+#: :func:`diffuse_shading` sums: degree 1 (band 1), then the homogeneous degree 4 (on the
+#: unit sphere these span bands 0, 2 and 4; the clamped cosine has no band 3).
+MONOMIALS = ((1, 0, 0), (0, 1, 0), (0, 0, 1)) + tuple(
+    (a, b, 4 - a - b) for a in range(4, -1, -1) for b in range(4 - a, -1, -1)
+)
+#: The quadratic monomials, as the pairs of components they multiply.
+_QUADRATIC = {(2, 0, 0): (0, 0), (0, 2, 0): (1, 1), (0, 0, 2): (2, 2)}
+_QUADRATIC |= {(1, 1, 0): (0, 1), (1, 0, 1): (0, 2), (0, 1, 1): (1, 2)}
+#: Each quartic monomial of :data:`MONOMIALS` as a product of two quadratic ones.
+_QUARTIC_PAIRS = tuple(
+    next((p, q) for p in _QUADRATIC for q in _QUADRATIC if np.array_equal(np.add(p, q), e))
+    for e in MONOMIALS[3:]
+)
 
 
 def _irradiance_scale(bands: int) -> torch.Tensor:
-    """``(bands^2,)`` factors taking a map's SH to those of ``S_D`` (irradiance / pi):
+    """``(bands^2,)`` float64 factors taking a map's SH to those of ``S_D`` (irradiance / pi):
     ``sqrt(4 pi / (2 l + 1)) z_l / pi`` with ``z_l`` the clamped cosine's zonal SH."""
     per_band = [
         math.sqrt(4 * math.pi / (2 * l + 1)) * sh.CLAMPED_COSINE_ZONAL[l] / math.pi
         for l in range(bands)  # noqa: E741 - l is the band
     ]
-    return torch.tensor([s for l, s in enumerate(per_band) for _ in range(2 * l + 1)])  # noqa: E741
+    factors = [s for l, s in enumerate(per_band) for _ in range(2 * l + 1)]  # noqa: E741
+    return torch.tensor(factors, dtype=torch.float64)
 
 
 def bright_lights(
-    environment: np.ndarray, coarse: np.ndarray, slots: int = LIGHTS
+    environment: np.ndarray, coarse: np.ndarray, limit: int = LIGHTS
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The bright texels of ``coarse`` ``(h, 2h, 3)`` (the downsampled ``environment``
-    ``(H, 2H, 3)``) as disk lights ``(slots, LIGHT_COLUMNS)`` float64, and ``coarse``
+    ``(H, 2H, 3)``) as ``K`` disk lights ``(K, LIGHT_COLUMNS)`` float64 (``K`` the
+    texels', at most ``limit``; one without power where there are none), and ``coarse``
     without them ``(h, 2h, 3)`` float64 (their texels 0).
 
     The texels are those :func:`neurender.ndr.shading.bright_texels` samples explicitly.
@@ -101,16 +124,13 @@ def bright_lights(
     their summed radiance x solid angle; direction their power-weighted mean direction,
     and radius ``sqrt(4 (1 - |mean|))`` (a disk of small radius ``r`` has mean resultant
     length ``1 - r^2 / 4``), each texel counted as a disk of its own solid angle, so a sun
-    smaller than a coarse texel keeps its place and size. Unused slots: direction +y, no
-    power, radius 0."""
+    smaller than a coarse texel keeps its place and size."""
     env = torch.from_numpy(np.asarray(environment, np.float64))
     small = torch.from_numpy(np.asarray(coarse, np.float64))
     h, w = small.shape[:2]
-    lights = torch.zeros(slots, LIGHT_COLUMNS, dtype=torch.float64)
-    lights[:, 1] = 1.0
-    chosen = bright_texels(small, limit=slots)
+    chosen = bright_texels(small, limit=limit)
     if chosen is None:
-        return lights, small
+        return no_lights(1), small
     big_h, big_w = env.shape[:2]
     dirs, solid = (torch.from_numpy(a) for a in sh.latlong_directions(big_h, big_w))
     dirs, solid = dirs.reshape(-1, 3), solid.reshape(-1)
@@ -129,30 +149,83 @@ def bright_lights(
     k = chosen.rows * w + chosen.cols
     mean = summed_dir[k] / summed_power[k].mean(-1, keepdim=True)
     length = mean.norm(dim=-1)
-    count = len(k)
-    lights[:count, 0:3] = mean / length[:, None]
-    lights[:count, 3:6] = summed_power[k]
-    lights[:count, 6] = torch.sqrt((4 * (1 - length)).clamp(min=0))
+    radius = torch.sqrt((4 * (1 - length)).clamp(min=0))
+    lights = torch.cat([mean / length[:, None], summed_power[k], radius[:, None]], 1)
     rest = small.clone().reshape(-1, 3)
     rest[k] = 0.0
     return lights, rest.reshape(h, w, 3)
 
 
+def no_lights(count: int, dtype: torch.dtype = torch.float64) -> torch.Tensor:
+    """``count`` lights ``(count, LIGHT_COLUMNS)`` that shade nothing: direction +y, no
+    power, radius 0 (what pads a batch of maps with fewer lights)."""
+    lights = torch.zeros(count, LIGHT_COLUMNS, dtype=dtype)
+    lights[:, 1] = 1.0
+    return lights
+
+
+def stack_lights(lights: Sequence[torch.Tensor]) -> torch.Tensor:
+    """Maps' lights ``(K_i, LIGHT_COLUMNS)`` as one batch ``(B, max K_i, LIGHT_COLUMNS)``,
+    each padded with :func:`no_lights` (which add exactly 0 to either shading)."""
+    count = max(len(x) for x in lights)
+    return torch.stack([torch.cat([x, no_lights(count - len(x), x.dtype)]) for x in lights])
+
+
+def monomials(x: torch.Tensor, y: torch.Tensor, z: torch.Tensor) -> list[torch.Tensor]:
+    """The :data:`MONOMIALS` of a unit vector's components (one shape each): 21 products."""
+    components = (x, y, z)
+    quadratic = {e: components[i] * components[j] for e, (i, j) in _QUADRATIC.items()}
+    return [x, y, z, *(quadratic[p] * quadratic[q] for p, q in _QUARTIC_PAIRS)]
+
+
+@functools.lru_cache(maxsize=4)
+def irradiance_monomials(bands: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """The diffuse shading's SH in :data:`MONOMIALS`, float64: ``to_monomials``
+    ``(18, bands^2)`` takes a map's SH ``c`` to the coefficients ``p = to_monomials @ c``
+    of its ``S_D`` (``S_D(n) = sum_j p_j m_j(n)`` for unit ``n``, ``m`` the monomials), and
+    ``kernel`` ``(18, 18)`` takes a light's monomials ``m(d)`` to those of the SH part of
+    its ``S_D`` (``kernel @ m(d)``, for unit power), both exact on the unit sphere
+    (bands up to 5: the monomials span the clamped cosine's bands 0 to 4).
+
+    Fitted by least squares at 1024 directions and checked there to 1e-10."""
+    check = np.random.default_rng(0).normal(size=(1024, 3))
+    dirs = torch.from_numpy(check / np.linalg.norm(check, axis=1, keepdims=True))
+    basis = sh.eval_sh(dirs, bands)  # (N, bands^2)
+    m = torch.stack(monomials(*dirs.unbind(-1)), -1)  # (N, 18)
+    scale = _irradiance_scale(bands)
+    used = scale != 0  # band 3 (zero) is no polynomial of these monomials
+    fit = torch.linalg.lstsq(m, basis[:, used]).solution  # (18, used): m @ fit = basis
+    if float((m @ fit - basis[:, used]).abs().max()) > 1e-10:
+        raise ValueError(f"irradiance_monomials({bands}): the SH are no polynomial of MONOMIALS")
+    to_monomials = torch.zeros(len(MONOMIALS), bands * bands, dtype=torch.float64)
+    to_monomials[:, used] = fit * scale[used]
+    return to_monomials, to_monomials[:, used] @ fit.T
+
+
+def diffuse_polynomial(coefficients: torch.Tensor, lights: torch.Tensor) -> torch.Tensor:
+    """The coefficients ``(..., 18, 3)`` of :data:`MONOMIALS` whose sum is ``S_D`` of a map
+    less its lights (per map, :func:`lighting`): from the map's SH ``coefficients``
+    ``(..., 25, 3)`` (:func:`neurender.sh.project_latlong`, 5 bands) less the SH of its
+    lights ``(..., K, LIGHT_COLUMNS)`` (:func:`bright_lights`), convolved with the clamped
+    cosine (:func:`irradiance_monomials`)."""
+    bands = math.isqrt(coefficients.shape[-2])
+    to_monomials, kernel = (m.to(coefficients.dtype) for m in irradiance_monomials(bands))
+    dirs, power = lights[..., 0:3], lights[..., 3:6]
+    light_monomials = torch.stack(monomials(*dirs.unbind(-1)), -2)  # (..., 18, K)
+    return to_monomials @ coefficients - kernel @ (light_monomials @ power)
+
+
 def diffuse_shading(
-    normals: torch.Tensor, coefficients: torch.Tensor, lights: torch.Tensor
+    normals: torch.Tensor, irradiance: torch.Tensor, lights: torch.Tensor
 ) -> torch.Tensor:
     """``S_D`` ``(..., 3, P)`` at unit ``normals`` ``(..., 3, P)`` (channels first, see
-    :func:`specular_shading`) from the map's SH ``coefficients`` ``(..., 25, 3)``
-    (:func:`neurender.sh.project_latlong`, 5 bands) and its lights ``(..., K,
-    LIGHT_COLUMNS)`` (:func:`bright_lights`): each light exactly, the rest of the map by the
-    SH less the lights' own, clamped at 0."""
-    bands = math.isqrt(coefficients.shape[-2])
-    scale = _irradiance_scale(bands).to(coefficients.dtype)
+    :func:`specular_shading`): the map less its lights by its :func:`diffuse_polynomial`
+    ``irradiance`` ``(..., 18, 3)``, each light ``(..., K, LIGHT_COLUMNS)`` exactly,
+    clamped at 0."""
     dirs, power = lights[..., 0:3], lights[..., 3:6]
-    rest = coefficients - sh.eval_sh(dirs, bands).transpose(-1, -2) @ power
-    basis = sh.eval_sh(normals, bands, axis=-2)  # (..., bands^2, P)
+    basis = torch.stack(monomials(*normals.unbind(-2)), -2)  # (..., 18, P)
     direct = power.transpose(-1, -2) @ (dirs @ normals).clamp(min=0.0) / math.pi
-    return ((rest * scale[:, None]).transpose(-1, -2) @ basis + direct).clamp(min=0.0)
+    return (irradiance.transpose(-1, -2) @ basis + direct).clamp(min=0.0)
 
 
 def level_roughness(levels: int = LEVELS) -> np.ndarray:
@@ -231,55 +304,70 @@ def albedo_table(size: int = TABLE_SIZE, samples: int = TABLE_SAMPLES) -> torch.
     return weight.mean(-1)
 
 
+def corner_cells(maps: torch.Tensor) -> torch.Tensor:
+    """The prefiltered maps ``(L, h, 2h, 3)`` of one lighting (:func:`prefilter`) as the
+    lookup reads them, ``(3, L - 1, h + 1, 2h + 1, 8)`` (per map, :func:`lighting`): padded
+    (a column of the far side at each azimuth end, the pole rows repeated), then each cell's
+    eight corners (two levels, two rows, two columns; level, row, column major) stored
+    together per channel, so that a pixel's read is one index (:func:`_map_lookup`)."""
+    levels, h, w, _ = maps.shape
+    padded = torch.cat([maps[..., -1:, :], maps, maps[..., :1, :]], 2)
+    padded = torch.cat([padded[:, :1], padded, padded[:, -1:]], 1)  # (L, h + 2, w + 2, 3)
+    corners = [
+        padded[dk : levels - 1 + dk, dr : h + 1 + dr, dc : w + 1 + dc]
+        for dk in (0, 1)
+        for dr in (0, 1)
+        for dc in (0, 1)
+    ]
+    return torch.stack(corners, -1).permute(3, 0, 1, 2, 4).contiguous()
+
+
+def _interpolate(cells: torch.Tensor, index: torch.Tensor, fractions) -> torch.Tensor:
+    """``(C, B, P)`` multilinear reads of ``cells`` ``(C, N, 2^d)`` (each cell's corners,
+    first axis major, as :func:`corner_cells` orders them) at cell ``index`` ``(B, P)``
+    (float, exact below 2^24), ``fractions`` the ``d`` positions ``(B, P)`` in the cell.
+
+    One gather per pixel: ONNX Runtime's gather costs per index, 5x less so than eight
+    indices of RGB rows; then the corners weighted and summed."""
+    weight = [torch.ones_like(index)]
+    for f in fractions:
+        weight = [w * g for w in weight for g in (1 - f, f)]
+    return (cells[:, index.long()] * torch.stack(weight, -1)).sum(-1)
+
+
 def _table_lookup(table: torch.Tensor, cos_v: torch.Tensor, roughness: torch.Tensor):
-    """Bilinear read of :func:`albedo_table` at ``cos_v`` and ``roughness`` (same shape)."""
+    """Bilinear read of :func:`albedo_table` ``(S, S)`` at ``cos_v`` and ``roughness``
+    ``(B, P)`` each (clamped to the table)."""
     size = table.shape[0]
+    # Each cell's four corners together (in the shipped graph a constant ONNX Runtime folds).
+    corners = [table[di : size - 1 + di, dj : size - 1 + dj] for di in (0, 1) for dj in (0, 1)]
+    cells = torch.stack(corners, -1).reshape(1, -1, 4)
     x = cos_v.clamp(0.0, 1.0) * (size - 1)
     y = roughness.clamp(0.0, 1.0) * (size - 1)
     i0 = x.floor().clamp(max=size - 2)
     j0 = y.floor().clamp(max=size - 2)
-    fx, fy = x - i0, y - j0
-    i0, j0 = i0.long(), j0.long()
-    flat = table.reshape(-1)
-    base = i0 * size + j0
-    return (
-        flat[base] * (1 - fx) * (1 - fy)
-        + flat[base + 1] * (1 - fx) * fy
-        + flat[base + size] * fx * (1 - fy)
-        + flat[base + size + 1] * fx * fy
-    )
+    return _interpolate(cells, i0 * (size - 1) + j0, (x - i0, y - j0))[0]
 
 
-def _map_lookup(maps: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor):
-    """Trilinear read ``(B, 3, P)`` of prefiltered maps ``(B, L, h, 2h, 3)`` at unit
-    ``dirs`` ``(B, 3, P)`` (channels first, see :func:`specular_shading`): bilinear between
-    texel centres (wrapping in azimuth, clamped at the poles) and linear in ``roughness``
-    ``(B, P)`` between the levels."""
-    batch, levels, h, w, _ = maps.shape
+def _map_lookup(cells: torch.Tensor, dirs: torch.Tensor, roughness: torch.Tensor):
+    """Trilinear read ``(B, 3, P)`` of prefiltered maps as :func:`corner_cells` ``(B, 3,
+    L - 1, h + 1, 2h + 1, 8)`` at unit ``dirs`` ``(B, 3, P)`` (channels first, see
+    :func:`specular_shading`): bilinear between texel centres (wrapping in azimuth, clamped
+    at the poles) and linear in ``roughness`` ``(B, P)`` between the levels."""
+    batch, _, steps, rows, cols, _ = cells.shape
+    levels, h, w = steps + 1, rows - 1, cols - 1
     dx, dy, dz = dirs.unbind(1)
-    theta = torch.arccos(dy.clamp(-1.0, 1.0))
-    phi = torch.atan2(dx, -dz)
-    y = theta / math.pi * h - 0.5
-    x = phi / (2 * math.pi) * w - 0.5
+    # Texel coordinates of the padded maps (centres at integers): row 1 is the first row,
+    # column 1 the first column (azimuth 0, -z; atan2(-x, z) is the azimuth less pi).
+    y = torch.arccos(dy.clamp(-1.0, 1.0)) * (h / math.pi) + 0.5
+    x = torch.atan2(-dx, dz) * (w / (2 * math.pi)) + (w / 2 + 0.5)
     s = roughness.clamp(0.0, 1.0) * (levels - 1)
     r0, c0 = y.floor(), x.floor()
     k0 = s.floor().clamp(max=levels - 2)
-    fy, fx, fk = y - r0, x - c0, s - k0
-    rows = [r0.clamp(0, h - 1).long(), (r0 + 1).clamp(0, h - 1).long()]
-    cols = [torch.remainder(c0, w).long(), torch.remainder(c0 + 1, w).long()]
-    first = (torch.arange(batch, device=maps.device)[:, None] * levels + k0.long()) * h
-    index, weight = [], []
-    for dk, wk in ((0, 1 - fk), (1, fk)):
-        for row, wr in zip(rows, (1 - fy, fy), strict=True):
-            for col, wc in zip(cols, (1 - fx, fx), strict=True):
-                index.append((first + dk * h + row) * w + col)
-                weight.append(wk * wr * wc)
-    # The eight corners in one gather of RGB rows, then channels first, so that each
-    # corner's weight scales whole (B, P) images (see specular_shading).
-    corners = maps.reshape(-1, 3)[torch.stack(index).reshape(-1)].T
-    corners = corners.reshape(3, 8, batch, -1).unbind(1)  # 8 x (3, B, P)
-    out = sum(c * wt for c, wt in zip(corners, weight, strict=True))
-    return out.transpose(0, 1)
+    images = torch.arange(batch, dtype=dirs.dtype, device=dirs.device)[:, None] * steps
+    index = ((images + k0) * rows + r0) * cols + c0  # (B, P)
+    flat = cells.transpose(0, 1).reshape(3, -1, 8)
+    return _interpolate(flat, index, (s - k0, y - r0, x - c0)).transpose(0, 1)
 
 
 def light_specular(
@@ -288,17 +376,28 @@ def light_specular(
     """``S_S`` ``(B, 3, P)`` of the disk lights ``(B, K, LIGHT_COLUMNS)``
     (:func:`bright_lights`) alone: per light, its power x ``D(h) G(v, l) / (4 n.v)`` at its
     direction, ``D`` widened by its radius (module docstring); unit ``normals``,
-    ``view_dirs`` ``(B, 3, P)`` (channels first), GGX width ``alpha`` ``(B, P)``."""
+    ``view_dirs`` ``(B, 3, P)`` (channels first), GGX width ``alpha`` ``(B, P)``.
+
+    The ``(B, K, P)`` terms are written for few operations (each is one pass over every
+    light and pixel): ``G1(c) = 2 c / (c + sqrt(a^2 + (1 - a^2) c^2))``, Smith's form of
+    :func:`neurender.ndr.shading.smith_g1`; ``D`` needs no clamp where ``n.l`` and ``n.v``
+    are positive (then ``n.h`` is)."""
     dirs, power, radius = lights[..., 0:3], lights[..., 3:6], lights[..., 6:7]
     n_dot_l = dirs @ normals  # (B, K, P)
     v_dot_l = dirs @ view_dirs
     n_dot_v = dot_components(normals.unbind(1), view_dirs.unbind(1))[:, None]  # (B, 1, P)
     # n.h with h = (l + v) / |l + v| and |l + v|^2 = 2 + 2 v.l: no (B, K, 3, P) temporaries.
     cos_h = (n_dot_l + n_dot_v) / torch.sqrt((2 + 2 * v_dot_l).clamp(min=1e-12))
-    a = alpha[:, None]
-    widened = torch.sqrt(a * a + radius * radius / 8)
-    brdf = ggx_d(cos_h, widened) * smith_g1(n_dot_l, a) * smith_g1(n_dot_v, a)
-    brdf = torch.where((n_dot_l > 0) & (n_dot_v > 0), brdf / (4 * n_dot_v.clamp(min=1e-7)), 0.0)
+    a2 = (alpha * alpha)[:, None]  # (B, 1, P)
+    widened = a2 + radius * radius / 8  # alpha'^2
+    denominator = cos_h * cos_h * (widened - 1) + 1
+    d = widened / (denominator * denominator)  # pi D(h)
+    g_l = n_dot_l / (n_dot_l + torch.sqrt(a2 + (1 - a2) * (n_dot_l * n_dot_l)))  # G1(l) / 2
+    c_v = n_dot_v.clamp(1e-7, 1.0)
+    g_v = 1 / (c_v + torch.sqrt(a2 + (1 - a2) * (c_v * c_v)))  # G1(v) / (2 n.v)
+    # D G1(l) G1(v) / (4 n.v) = (pi D) (G1(l) / 2) (G1(v) / (2 n.v)) / pi
+    view = torch.where(n_dot_v > 0, g_v / math.pi, 0.0)
+    brdf = torch.where(n_dot_l > 0, d * g_l, 0.0) * view
     return power.transpose(1, 2) @ brdf
 
 
@@ -306,15 +405,15 @@ def specular_shading(
     normals: torch.Tensor,
     view_dirs: torch.Tensor,
     alpha: torch.Tensor,
-    maps: torch.Tensor,
+    cells: torch.Tensor,
     table: torch.Tensor,
     lights: torch.Tensor,
 ) -> torch.Tensor:
     """``S_S`` ``(B, 3, P)``: the lights (:func:`light_specular`) and the rest of the map by
     the split sum (module docstring): unit ``normals`` and ``view_dirs`` ``(B, 3, P)``
     (towards the eye), GGX width ``alpha`` ``(B, P)``, the prefiltered maps of the map
-    without its lights ``(B, L, h, 2h, 3)`` (:func:`prefilter`), :func:`albedo_table` and
-    the lights ``(B, K, LIGHT_COLUMNS)``; 0 where ``n.v <= 0``.
+    without its lights as :func:`corner_cells` ``(B, 3, L - 1, h + 1, 2h + 1, 8)``,
+    :func:`albedo_table` and the lights ``(B, K, LIGHT_COLUMNS)``; 0 where ``n.v <= 0``.
 
     Channels first, and per-pixel vectors as their three ``(B, P)`` components: ONNX
     Runtime broadcasts a per-pixel scalar over a last axis of 3 (or reduces over it)
@@ -332,52 +431,64 @@ def specular_shading(
     length = torch.sqrt(dot_components(dominant, dominant)).clamp(min=1e-12)
     dominant = torch.stack([d / length for d in dominant], 1)
     roughness = torch.sqrt(alpha.clamp(0.0, 1.0))
-    radiance = _map_lookup(maps, dominant, roughness)
+    radiance = _map_lookup(cells, dominant, roughness)
     albedo = _table_lookup(table.to(normals.dtype), cos_v, roughness)
     rest = torch.where(cos_v > 0, albedo, 0.0)[:, None] * radiance
     return rest + light_specular(normals, view_dirs, alpha, lights)
 
 
+class MapLighting(NamedTuple):
+    """What the fast shading reads of one map, made once per map (:func:`lighting`),
+    float64; a batch of them stacks each field (the lights by :func:`stack_lights`)."""
+
+    #: ``(25, 3)`` the map's 5-band SH (what the network's light input is made of).
+    coefficients: torch.Tensor
+    #: ``(18, 3)`` ``S_D`` of the map less its lights (:func:`diffuse_polynomial`).
+    irradiance: torch.Tensor
+    #: ``(3, L - 1, h + 1, 2h + 1, 8)`` the prefiltered maps of its coarse copy less its
+    #: lights as :func:`corner_cells`.
+    cells: torch.Tensor
+    #: ``(K, LIGHT_COLUMNS)`` its bright texels as lights (:func:`bright_lights`).
+    lights: torch.Tensor
+
+
+def map_lighting(coefficients: torch.Tensor, maps: torch.Tensor, lights: torch.Tensor):
+    """The :class:`MapLighting` of a map's SH ``coefficients`` ``(25, 3)``, the prefiltered
+    maps ``(L, h, 2h, 3)`` of its coarse copy less its ``lights`` ``(K,
+    LIGHT_COLUMNS)``."""
+    irradiance = diffuse_polynomial(coefficients, lights.to(coefficients.dtype))
+    return MapLighting(coefficients, irradiance, corner_cells(maps), lights)
+
+
+def lighting(environment: np.ndarray, coarse: np.ndarray) -> MapLighting:
+    """The fast shading's lighting of one map ``environment`` ``(H, 2H, 3)``, float64: its
+    SH, and the prefiltered maps of its downsampled copy ``coarse`` ``(h, 2h, 3)`` less its
+    bright texels, which become lights (:func:`bright_lights`)."""
+    coefficients = torch.from_numpy(sh.project_latlong(environment, SH_BANDS))
+    lights, rest = bright_lights(environment, coarse)
+    return map_lighting(coefficients, prefilter(rest), lights)
+
+
 def prefiltered_shading(
-    normals: torch.Tensor,
-    view_dirs: torch.Tensor,
-    alpha: torch.Tensor,
-    coefficients: torch.Tensor,
-    maps: torch.Tensor,
-    lights: torch.Tensor,
+    normals: torch.Tensor, view_dirs: torch.Tensor, alpha: torch.Tensor, light: MapLighting
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """``S_D`` and ``S_S`` ``(P, 3)`` for ``P`` points under one lighting
+    """``S_D`` and ``S_S`` ``(P, 3)`` for ``P`` points under one map's ``light``
     (:func:`lighting`): the counterpart of :func:`neurender.ndr.shading.coarse_shading`.
 
     Args:
         normals, view_dirs: ``(P, 3)`` unit vectors (view_dir points to the eye).
         alpha: ``(P,)`` GGX width.
-        coefficients: ``(25, 3)`` the map's 5-band SH.
-        maps: ``(L, h, 2h, 3)`` the prefiltered maps of its coarse copy without its lights.
-        lights: ``(K, LIGHT_COLUMNS)`` its bright texels as lights (:func:`bright_lights`).
+        light: the map's :class:`MapLighting`.
     """
     dtype = normals.dtype
-    lights = lights.to(dtype)
-    s_d = diffuse_shading(normals.T, coefficients.to(dtype), lights).T
+    lights = light.lights.to(dtype)
+    s_d = diffuse_shading(normals.T, light.irradiance.to(dtype), lights).T
     s_s = specular_shading(
         normals.T[None],
         view_dirs.T[None],
         alpha[None].to(dtype),
-        maps[None].to(dtype),
+        light.cells[None].to(dtype),
         albedo_table(),
         lights[None],
     )[0].T
     return s_d, s_s
-
-
-def lighting(
-    environment: np.ndarray, coarse: np.ndarray
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """The fast shading's lighting of one map, float64: the 5-band SH ``(25, 3)`` of
-    ``environment`` ``(H, 2H, 3)`` (what the network's light input is made of), the
-    prefiltered maps ``(L, h, 2h, 3)`` of its downsampled copy ``coarse`` ``(h, 2h, 3)``
-    without its bright texels, and those texels as lights ``(LIGHTS, LIGHT_COLUMNS)``
-    (:func:`bright_lights`)."""
-    coefficients = torch.from_numpy(sh.project_latlong(environment, SH_BANDS))
-    lights, rest = bright_lights(environment, coarse)
-    return coefficients, prefilter(rest), lights

@@ -19,7 +19,7 @@ import io
 import logging
 import tempfile
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -94,16 +94,19 @@ def export_onnx(
     atol: float = 1e-4,
     input_names: tuple[str, ...] = ("x",),
     rtol: float = 0.0,
+    dynamic_axes: Mapping[str, Mapping[int, str]] | None = None,
 ) -> float:
     """Write an eval-mode CPU ``model`` as an ONNX graph with a dynamic batch axis.
 
     The graph maps the inputs (``x`` ``(B, C, H, W)`` float32 by default; several named
     by ``input_names``, each with the batch first) to the model's output ``y``; all other
-    dimensions are fixed to the example's. Before the file is written, ONNX Runtime runs
-    it on ``example`` and a ``ValueError`` is raised if any output differs from PyTorch's
-    by more than ``atol + rtol * max|y|`` (``rtol`` for outputs in physical units, e.g.
-    HDR radiance, whose float32 rounding grows with their magnitude); the difference is
-    stored in the file's metadata (``neurender.max_abs_diff_vs_pytorch``) and returned.
+    dimensions are fixed to the example's but those ``dynamic_axes`` names (input name ->
+    axis -> its name, e.g. ``{"lights": {1: "lights"}}``). Before the file is written,
+    ONNX Runtime runs it on ``example`` and a ``ValueError`` is raised if any output
+    differs from PyTorch's by more than ``atol + rtol * max|y|`` (``rtol`` for outputs in
+    physical units, e.g. HDR radiance, whose float32 rounding grows with their magnitude);
+    the difference is stored in the file's metadata (``neurender.max_abs_diff_vs_pytorch``)
+    and returned.
 
     The graph is traced by torch's TorchScript-based exporter (``dynamo=False``): for our
     networks it writes the same graph as the ``torch.export``-based one, which ONNX Runtime
@@ -133,7 +136,10 @@ def export_onnx(
             dynamo=False,
             input_names=list(input_names),
             output_names=["y"],
-            dynamic_axes={name: {0: "batch"} for name in (*input_names, "y")},
+            dynamic_axes={
+                name: {0: "batch", **(dynamic_axes or {}).get(name, {})}
+                for name in (*input_names, "y")
+            },
             opset_version=OPSET,
         )
         log.debug("torch.onnx: %s", chatter.getvalue())
