@@ -6,11 +6,11 @@ The default config's network (variant ``ndr``, widths 16 32 64 128, SH layers 64
 weights at initialisation: the time does not depend on them) at 64 x 64, one random object
 of the data under a real-world-like map, its sun and six lights without power: 7 lights, as
 many as the median test map of the default config has bright texels (a frame's shading
-grows with them; :func:`neurender.ndr.prefiltered.bright_lights`). Three ONNX files, each checked against PyTorch
-by :func:`neurender.nn.inference.export_onnx`: the prefiltered coarse shading alone, the
-network alone (:class:`neurender.ndr.deploy.NDRGraph`, what ``ndr_deploy`` ships today) and
-the two in one graph. Each also as an int8 graph (``... int8 convolutions``): its
-convolutions quantized by ONNX Runtime's static QDQ quantizer
+grows with them; :func:`neurender.ndr.prefiltered.bright_lights`). Three ONNX files, each
+checked against PyTorch by :func:`neurender.nn.inference.export_onnx`: the prefiltered
+coarse shading alone, the network alone (:class:`neurender.ndr.deploy.NDRGraph`, what
+``ndr_deploy`` ships today) and the two in one graph. Each also as an int8 graph (``...
+int8 convolutions``): its convolutions quantized by ONNX Runtime's static QDQ quantizer
 (:func:`neurender.nn.inference.quantize_convolutions`: weights per channel, activations
 calibrated on this frame), timed by ONNX Runtime alone.
 The int8 rows measure speed only: with weights at initialisation their difference from
