@@ -120,3 +120,34 @@ def test_the_profiles_parse_and_the_slurm_one_names_the_executor():
     slurm = yaml.safe_load((ROOT / "profiles/slurm/config.yaml").read_text())
     assert slurm["executor"] == "slurm"
     assert yaml.safe_load((ROOT / "profiles/default/config.yaml").read_text())
+
+
+def _fit(rule: str, fixed_s: float, per_unit_s: float, mb: float, samples: int) -> pd.DataFrame:
+    return pd.DataFrame(
+        [(rule, fixed_s, per_unit_s, mb, mb / 100, samples)], columns=list(plan.FIT_COLUMNS)
+    )
+
+
+def test_averaged_fits_take_the_mean_time_and_the_largest_memory():
+    fast = pd.concat([_fit("a", 1.0, 0.1, 400.0, 3), _fit("b", 2.0, 0.0, 300.0, 1)])
+    slow = pd.concat([_fit("a", 4.0, 0.3, 380.0, 5), _fit("c", 6.0, 1.0, 200.0, 2)])
+    out = plan.average_fits([fast, slow]).set_index("rule")
+    assert list(out.index) == ["a", "b", "c"]
+    assert out.loc["a", ["fixed_s", "per_unit_s"]].tolist() == pytest.approx([2.5, 0.2])
+    assert out.loc["a", ["fixed_mb", "per_unit_mb"]].tolist() == pytest.approx([400.0, 4.0])
+    assert out.loc["a", "samples"] == 8
+    # a rule in one fit only keeps that fit's values
+    assert out.loc["b"].tolist() == pytest.approx([2.0, 0.0, 300.0, 3.0, 1])
+    assert out.loc["c"].tolist() == pytest.approx([6.0, 1.0, 200.0, 2.0, 2])
+
+
+def test_an_averaged_fit_is_within_the_check_factor_of_machines_up_to_5x_apart():
+    # A job of 10 units measured on a machine and on one 5x slower: the average of the two
+    # fits is within CHECK_FACTOR of both, which neither fit alone is.
+    fast, slow = _fit("a", 1.0, 0.5, 400.0, 2), _fit("a", 5.0, 2.5, 400.0, 2)
+    measured = {"fast": 1.0 + 0.5 * 10, "slow": 5.0 + 2.5 * 10}
+    c = plan.average_fits([fast, slow]).iloc[0]
+    estimate = c.fixed_s + c.per_unit_s * 10
+    for seconds in measured.values():
+        assert 1 / plan.CHECK_FACTOR <= estimate / seconds <= plan.CHECK_FACTOR
+    assert measured["slow"] / measured["fast"] > plan.CHECK_FACTOR

@@ -6,7 +6,8 @@ trained on times the network's width, Mitsuba samples, ray-marched pixels, ...),
 by its method beside its code (the ``rules`` of its record, :mod:`neurender.methods`);
 ``costs.csv`` holds per rule ``seconds = fixed_s + per_unit_s * work`` and
 ``memory = fixed_mb + per_unit_mb * memory_work`` fitted to the benchmark files of a
-smoke and a default run (``python -m neurender.plan --calibrate``). The scheduler
+smoke and a default run (``python -m neurender.plan --calibrate``), averaged over the
+fits of machines of different speeds (``--average-with``, docs/cluster.md). The scheduler
 resources of a job (``runtime`` in minutes, ``mem_mb``) are these estimates times a safety
 factor; ``python -m neurender.plan`` sums them per stage.
 """

@@ -36,6 +36,8 @@ from neurender import config, costs, io
 ROOT = Path(__file__).resolve().parents[2]
 #: The factor within which ``--check`` accepts a stage's estimate (docs/cluster.md).
 CHECK_FACTOR = 3.0
+#: The columns of ``costs.csv``, one row per rule.
+FIT_COLUMNS = ("rule", "fixed_s", "per_unit_s", "fixed_mb", "per_unit_mb", "samples")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,6 +208,25 @@ def calibrate(runs: Sequence[tuple[Path, Sequence[str]]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def average_fits(fits: Sequence[pd.DataFrame]) -> pd.DataFrame:
+    """One ``costs.csv`` table from fits of :func:`calibrate` to runs on different
+    machines: per rule the mean of the time coefficients (so estimates sit between the
+    machines' speeds, which differ by up to 3x between otherwise equal 2-core machines),
+    the largest memory coefficients (memory does not depend on the machine's speed; the
+    scheduler's request must cover each), the samples summed. A rule in only some fits
+    takes their values."""
+    frame = pd.concat(fits, ignore_index=True)
+    grouped = frame.groupby("rule", sort=True)
+    out = grouped.agg(
+        fixed_s=("fixed_s", "mean"),
+        per_unit_s=("per_unit_s", "mean"),
+        fixed_mb=("fixed_mb", "max"),
+        per_unit_mb=("per_unit_mb", "max"),
+        samples=("samples", "sum"),
+    )
+    return out.reset_index()
+
+
 def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """``a + b x`` fitting ``y`` with ``a, b >= 0`` (a constant where ``x`` does not vary)."""
     if np.ptp(x) == 0:
@@ -233,11 +254,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--calibrate", nargs="+", metavar="RESULTS:CONFIG", help="finished runs to fit costs.csv to"
     )
+    parser.add_argument(
+        "--average-with",
+        nargs="+",
+        default=[],
+        type=Path,
+        metavar="CSV",
+        help="with --calibrate: earlier fits (costs.csv of runs on other machines) to average "
+        "the new fit with (plan.average_fits)",
+    )
     args = parser.parse_args(argv)
+    if args.average_with and not args.calibrate:
+        parser.error("--average-with needs --calibrate")
     if args.calibrate:
         pairs = (item.split(":", 1) for item in args.calibrate)
         runs = [(Path(r), [f for f in c.split(",") if f]) for r, c in pairs]
+        earlier = [io.read_csv(p, required=FIT_COLUMNS, text=("rule",)) for p in args.average_with]
         table = calibrate(runs)
+        if earlier:
+            table = average_fits([table, *earlier])
         out = Path(costs.__file__).with_name("costs.csv")
         table.round(6).to_csv(out, index=False)
         print(f"wrote {out}:\n{table.to_string(index=False)}")
