@@ -1,3 +1,4 @@
+import dataclasses
 from dataclasses import replace
 
 import numpy as np
@@ -13,6 +14,7 @@ from neurender.prt.local_model import (
     DilatedNet,
     LocalConfig,
     ShadowingTransfer,
+    correction_gate,
     load_local,
     local_features,
     local_mean,
@@ -23,8 +25,11 @@ from neurender.prt.training import train_local
 
 
 def _local(**fields):
-    """The variant with the schema's SH bands and a small U-Net, ``fields`` changed."""
-    return LocalConfig(**{"n_bands": 4, "widths": (8, 16), "blocks": 1, **fields})
+    """The variant with the schema's SH bands and a small U-Net, ``fields`` changed (the
+    unet core and a core without the occlusion input ungated)."""
+    ungated = fields.get("architecture") == "unet" or fields.get("occlusion_input") is False
+    defaults = {"n_bands": 4, "widths": (8, 16), "blocks": 1, "gated": not ungated}
+    return LocalConfig(**{**defaults, **fields})
 
 
 def _bumpy(n=16, seed=0, shift=(0.0, 0.0, 0.0)):
@@ -98,7 +103,7 @@ def test_the_core_sees_an_occluder_beyond_its_receptive_field_only_through_the_d
     far = (slice(None), slice(None), slice(12, 20), slice(0, 8))
     changed = {}
     for occlusion_input in (False, True):
-        model = _trained_like(replace(cfg, occlusion_input=occlusion_input))
+        model = _trained_like(replace(cfg, occlusion_input=occlusion_input, gated=False))
         base, occlusion = model.estimates_of(_raw(flat))
         model.fit_normalisation(np.zeros_like(base), occlusion)  # the inputs' o_scale
         with torch.no_grad():
@@ -160,12 +165,14 @@ def _split(seed, frames=4, n=16):
     return Split(pos, nrm, diffuse, glossy, np.zeros((frames, 1), np.float32))
 
 
-@pytest.mark.parametrize("material", ["diffuse", "glossy"])
-def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, material):
+@pytest.mark.parametrize(
+    ("material", "gated"), [("diffuse", True), ("glossy", True), ("glossy", False)]
+)
+def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, material, gated):
     train, val = _split(0), _split(1)
     cfg = {"seed": 0, "epochs": 40, "batch_size": 2, "lr": 1e-2, "device": "cpu"}
     cfg["lr_schedule"] = "cosine"  # a config key: the schema's default, as the stage gets it
-    local_cfg = _local(material=material, width=8, dilations=(1, 2), window=5)
+    local_cfg = _local(material=material, width=8, dilations=(1, 2), window=5, gated=gated)
     ckpt = tmp_path / "local.pt"
     model = train_local(
         train, val, local_cfg, cfg, 1, str(ckpt), str(tmp_path / "loss.csv"), light=LIGHT
@@ -179,7 +186,11 @@ def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, mate
     with torch.no_grad():
         err = np.abs(model(x).numpy() - target).mean()
         loaded = load_local(ckpt)(x).numpy()
-    assert err < 0.7 * base
+    # The synthetic darkening (z < 0) is not where the disks see occlusion everywhere, and
+    # a gated correction acts only there: it gains less on it than an ungated one.
+    bound = (0.75 if gated else 0.7) * base
+    assert err < bound
+    assert load_local(ckpt).cfg.gated == gated
     assert np.allclose(loaded, model(x).detach().numpy(), atol=1e-6)
     # The shared loader serves it as it serves the paper's form, by PyTorch and by the
     # exported file.
@@ -198,7 +209,7 @@ def test_training_lowers_the_error_and_the_checkpoint_round_trips(tmp_path, mate
     assert set(int8.engines) == {"onnxruntime"}
     approx = int8.predict(val)
     assert np.abs(approx - loaded).mean() <= 0.05 * np.abs(loaded).mean()
-    assert np.abs(approx - target).mean() < 0.7 * base
+    assert np.abs(approx - target).mean() < bound
 
 
 @pytest.mark.parametrize("window", [1, 3, 15])
@@ -234,3 +245,65 @@ def test_a_core_that_outputs_the_encoded_term_reproduces_the_targets(architectur
         np.testing.assert_allclose(z.std(dim=(0, 2, 3), unbiased=False), 1.0, rtol=1e-4)
     else:
         assert 0 < z.min() and z.max() < 1
+
+
+def test_correction_gate_is_each_colours_dc_magnitude():
+    occlusion = torch.randn(2, 3 * 16, 5, 4)
+    gate = correction_gate(occlusion, 3)
+    for c in range(3):
+        want = occlusion[:, 16 * c].abs()
+        for k in range(16):
+            torch.testing.assert_close(gate[:, 16 * c + k], want)
+    torch.testing.assert_close(
+        correction_gate(occlusion[:, :16], 1), occlusion[:, :1].abs().expand(-1, 16, -1, -1)
+    )
+
+
+@pytest.mark.parametrize("material", ["diffuse", "glossy"])
+def test_a_gated_network_adds_nothing_where_the_disks_see_no_occlusion(material):
+    """On a flat plane nothing occludes and the disks see nothing: a gated network with
+    random weights returns its base estimate exactly (the unshadowed transfer), an
+    ungated one does not; on a bumpy shape the gated one corrects."""
+    t = np.linspace(-1, 1, 16)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    flat = torch.from_numpy(_raw(np.stack([xx, yy, np.zeros_like(xx)], -1)))
+    bumpy = torch.from_numpy(_raw(_bumpy()))
+    cfg = _local(material=material, architecture="dilated", width=8, dilations=(1, 2))
+    differences = {}
+    for gated in (True, False):
+        model = _trained_like(replace(cfg, gated=gated))
+        with torch.no_grad():
+            model.t_offset.zero_()  # as fit_normalisation leaves the dilated core's
+            differences[gated] = [
+                float((model(x) - model.base(x)).abs().max()) for x in (flat, bumpy)
+            ]
+    assert differences[True][0] == 0.0 and differences[False][0] > 1e-3
+    assert differences[True][1] > 1e-3
+
+
+def test_gated_needs_the_occlusion_input_and_the_dilated_core():
+    with pytest.raises(ValueError, match="gated"):
+        LocalConfig(n_bands=4, widths=(8,), blocks=1, occlusion_input=False)
+    with pytest.raises(ValueError, match="gated"):
+        LocalConfig(n_bands=4, widths=(8,), blocks=1, architecture="unet")
+
+
+def test_a_checkpoint_from_before_the_gate_loads_ungated(tmp_path):
+    """Checkpoints written before ``gated`` existed hold an ungated core: loaded as such."""
+    cfg = _local(width=8, dilations=(1, 2), window=5, gated=False)
+    model = _trained_like(cfg)
+    local_config = dataclasses.asdict(cfg)
+    del local_config["gated"]
+    torch.save(
+        {
+            "model": model.state_dict(),
+            "config": {},
+            "extra": {"local_config": local_config, "glossy_coeffs": None, "light": None},
+        },
+        tmp_path / "old.pt",
+    )
+    loaded = load_local(tmp_path / "old.pt")
+    assert loaded.cfg.gated is False
+    x = torch.from_numpy(_raw(_bumpy()))
+    with torch.no_grad():
+        torch.testing.assert_close(loaded(x), model(x))

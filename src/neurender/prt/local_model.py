@@ -14,6 +14,10 @@ whole transfer, so it can memorise the training animation's global pose. This va
   local features, so the network can learn where the disks over-count (overlapping
   occluders, the far side of a closed surface) or under-count, and sees a fold's
   occlusion that lies beyond its receptive field;
+* scales its correction per pixel (``gated``) by the disks' occluded solid angle there
+  (the DC channel of their estimate, per colour, over its training standard deviation):
+  where the disks see nothing occluded the network adds nothing, so a shape smoother than
+  any training frame (a cloth's mean shape) is not given the corrections learnt on folds;
 * sees positions only relative to their neighbourhood: ``P`` minus its ``window x window``
   mean (average pooling), divided by ``window / 2`` times the frame's mean grid-edge
   length. These inputs do not change under a translation or a uniform scaling of the
@@ -67,6 +71,7 @@ class LocalConfig:
     window: int = 15  # side of the local-mean window, pixels (odd)
     occlusion_grid: int = disk_occlusion.DEFAULT_GRID  # blocks per side of the disks (0: none)
     occlusion_input: bool = True  # the core reads the disks' estimate (needs occlusion_grid)
+    gated: bool = True  # correction scaled by the disks' occlusion (dilated, occlusion_input)
 
     def __post_init__(self):
         if self.architecture not in ARCHITECTURES:
@@ -77,12 +82,20 @@ class LocalConfig:
             raise ValueError(f"window {self.window}: expected an odd number of pixels >= 1")
         if self.occlusion_input and not self.occlusion_grid:
             raise ValueError("occlusion_input needs disks: occlusion_grid is 0")
+        if self.gated and not (self.occlusion_input and self.architecture == "dilated"):
+            raise ValueError(
+                "gated needs occlusion_input and the dilated core (the unet's term has an offset)"
+            )
         self.dilations, self.widths = tuple(self.dilations), tuple(self.widths)
 
     @property
+    def colours(self) -> int:
+        """Colour groups of the transfer: 1 diffuse, 3 glossy (colour-major)."""
+        return 1 if self.material == "diffuse" else 3
+
+    @property
     def out_channels(self) -> int:
-        k = self.n_bands**2
-        return k if self.material == "diffuse" else 3 * k
+        return self.colours * self.n_bands**2
 
 
 class DilatedNet(nn.Module):
@@ -130,6 +143,14 @@ def local_mean(x: torch.Tensor, window: int) -> torch.Tensor:
     return F.avg_pool2d(rows, (1, window), stride=1, padding=(0, half), count_include_pad=False)
 
 
+def correction_gate(occlusion: torch.Tensor, colours: int) -> torch.Tensor:
+    """``(B, C, n, n)`` per-pixel factor of a gated correction from the disks' normalised
+    occlusion ``(B, C, n, n)`` (``C = colours * K``, colour-major): each colour's DC
+    channel, ``|o_{c,0}|``, for all ``K`` channels of that colour."""
+    per_colour = occlusion.unflatten(1, (colours, -1))
+    return per_colour[:, :, :1].abs().expand_as(per_colour).flatten(1, 2)
+
+
 def local_features(x: torch.Tensor, window: int) -> torch.Tensor:
     """``(B, 6, n, n)`` network inputs from raw P and N images ``(B, 6, n, n)``: P minus its
     ``window``-pixel local mean (borders: the mean of the pixels inside) over ``window / 2``
@@ -144,8 +165,10 @@ def local_features(x: torch.Tensor, window: int) -> torch.Tensor:
 
 class ShadowingTransfer(nn.Module):
     """Raw P and N images ``(B, 6, n, n)`` to transfer ``(B, C, n, n)`` in physical units:
-    the :meth:`base` estimate plus ``core(features) * t_scale + t_offset``, the features
-    being the local ones and (``occlusion_input``) the disks' occlusion over ``o_scale``.
+    the :meth:`base` estimate plus ``shadowing * t_scale + t_offset``, the shadowing term
+    being ``core(features)`` (``gated``: times :func:`correction_gate` of the normalised
+    occlusion), the features the local ones and (``occlusion_input``) the disks'
+    occlusion over ``o_scale``.
 
     Buffers: ``t_offset``, ``t_scale`` ``(1, C, 1, 1)`` (the shadowing target's affine
     normalisation), ``o_scale`` ``(1, C, 1, 1)`` (the occlusion input's) and, for
@@ -209,15 +232,20 @@ class ShadowingTransfer(nn.Module):
         return t
 
     def shadowing(self, x: torch.Tensor, occlusion: torch.Tensor | None = None) -> torch.Tensor:
-        """The core network's normalised output ``(B, C, n, n)`` (what training fits) for
-        raw inputs ``(B, 6, n, n)`` and (``occlusion_input``) their :meth:`occlusion`,
-        computed unless given."""
+        """The normalised shadowing term ``(B, C, n, n)`` (what training fits): the core
+        network's output (``gated``: scaled by :func:`correction_gate`) for raw inputs
+        ``(B, 6, n, n)`` and (``occlusion_input``) their :meth:`occlusion`, computed unless
+        given."""
         features = local_features(x, self.cfg.window)
-        if self.cfg.occlusion_input:
-            if occlusion is None:
-                occlusion = self.occlusion(x)
-            features = torch.cat([features, occlusion / self.o_scale], 1)
-        return self.core(features)
+        if not self.cfg.occlusion_input:
+            return self.core(features)
+        if occlusion is None:
+            occlusion = self.occlusion(x)
+        normalised = occlusion / self.o_scale
+        out = self.core(torch.cat([features, normalised], 1))
+        if self.cfg.gated:
+            out = out * correction_gate(normalised, self.cfg.colours)
+        return out
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         occlusion = self.occlusion(x)  # once for the base and the core
@@ -271,8 +299,9 @@ def load_local(checkpoint: str | Path) -> ShadowingTransfer:
     :func:`neurender.prt.training.train_local` (best validation epoch)."""
     state = train.load_checkpoint(checkpoint)
     extra = state["extra"]
-    # Checkpoints from before occlusion_input existed have cores that read no occlusion.
-    cfg = LocalConfig(**{"occlusion_input": False, **extra["local_config"]})
+    # Checkpoints from before occlusion_input (gated) existed have cores that read no
+    # occlusion (an ungated correction).
+    cfg = LocalConfig(**{"occlusion_input": False, "gated": False, **extra["local_config"]})
     model = ShadowingTransfer(cfg, extra.get("glossy_coeffs"), extra.get("light"))
     model.load_state_dict({"o_scale": model.o_scale, **state["model"]})  # (ones before it)
     return model.eval()
