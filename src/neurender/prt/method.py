@@ -184,6 +184,9 @@ GENERALISATION = "benchmarks/results/prt_generalisation.csv"
 #: Issue 27's learning curves, ``benchmarks/prt_generalisation.py --study
 #: config/studies/deepprt.yaml``: budgets in epochs and in distinct training shapes.
 LEARNING_CURVE = "benchmarks/results/prt_learning_curve.csv"
+#: Issue 27's gated correction, ``benchmarks/prt_correction_runs.py``: the shadowing
+#: variant with and without its gate, retrained on the same data.
+CORRECTION = "benchmarks/results/prt_correction_runs.csv"
 #: The rows both curves show. Their budgets: the study config's ``equal_steps`` (8 epochs
 #: over 240 frames, batch 5: 384 optimiser steps); baselines, untrained, have 0 epochs.
 _CURVE_METRIC = "metric == 'rel_l1_diffuse' and family != 'timing'"
@@ -240,6 +243,35 @@ STUDIES = (
         query="family != 'test' and metric == 'rel_l1_diffuse'",
         index=("object", "family"),
         columns=("model", "epochs"),
+    ),
+    Study(
+        csv=CORRECTION,
+        title="Gated correction: the test frames",
+        description=(
+            "The shadowing variant as shipped before dea4ca1 (its correction added "
+            "everywhere) and gated by the disks' occlusion (the correction scaled per pixel "
+            "by their occluded solid angle), retrained on the same data of a default run "
+            "(8 epochs each, 64 x 64, 256 directions, references at 4096): relative L1 of "
+            "radiance and SSIM on the test frames."
+        ),
+        query="split == 'test' and model == 'DeepPRT shadowing'",
+        index=("dataset", "metric"),
+        columns=("correction",),
+    ),
+    Study(
+        csv=CORRECTION,
+        title="Gated correction: unseen deformations",
+        description=(
+            "The same two networks' relative L1 of diffuse radiance on each unseen "
+            "deformation family (mean over strengths 0.25 to 1), beside the disks alone "
+            "and the unshadowed and static baselines (no learning)."
+        ),
+        query=(
+            "split == 'unseen' and metric == 'rel_l1_radiance_diffuse' and "
+            "(model == 'DeepPRT shadowing' or correction == 'gated')"
+        ),
+        index=("dataset", "family"),
+        columns=("model", "correction"),
     ),
     Study(
         csv="benchmarks/results/prt_width.csv",
