@@ -200,7 +200,8 @@ STUDIES = (
             "and the shadowing variant trained for 2, 4 and 8 epochs over the same 240 "
             "frames (evenly spaced over a training sequence of 480; 64 x 64, 256 "
             "directions, references at 1024), beside the unshadowed and static baselines "
-            "(0 epochs). The shadowing variant as shipped: disks, occlusion input."
+            "(0 epochs). The shadowing variant as shipped at 7d190ad: disks, occlusion input, "
+            "its correction not yet gated."
         ),
         query=f"{_CURVE_METRIC} and (train_frames == 240 or epochs == 0)",
         index=("object", "model", "epochs"),
@@ -213,7 +214,7 @@ STUDIES = (
             "The same error for 30 to 480 training frames, evenly spaced over one "
             "sequence of 480, each trained for the same 384 optimiser steps (64 epochs "
             "over 30 frames, 4 over 480): does variety of shapes help where more epochs "
-            "do not? Baselines at 0 frames. The shadowing variant as shipped."
+            "do not? Baselines at 0 frames. The shadowing variant as shipped at 7d190ad."
         ),
         query=f"{_CURVE_METRIC} and (steps == 384 or epochs == 0)",
         index=("object", "model", "train_frames"),
