@@ -1,4 +1,5 @@
-"""Rendered-appearance scores: the relative L1 of radiance against analytic values."""
+"""Rendered-appearance scores: the relative L1 of radiance against analytic values, SSIM of
+the displayed (clamped) images."""
 
 import numpy as np
 import pandas as pd
@@ -6,7 +7,7 @@ import pytest
 
 from neurender.prt.frames import Split
 from neurender.prt.geometry_image import grid_uv
-from neurender.prt.scores import relative_l1, score_frames
+from neurender.prt.scores import compare_images, image_ssim, relative_l1, score_frames
 
 
 def test_relative_l1_of_a_uniform_scaling_is_the_scale_error():
@@ -55,3 +56,29 @@ def test_every_frame_scores_its_radiance_error_per_material():
         assert len(sel) == 4
         np.testing.assert_allclose(sel.loc["scaled"].value, 0.1, rtol=1e-5)
         np.testing.assert_allclose(sel.loc["exact"].value, 0.0, atol=1e-7)
+
+
+def test_an_exact_prediction_scores_ssim_one_where_the_reference_rings_below_zero():
+    """Band-limited radiance is negative in places; a prediction equal to the reference
+    must still score 1 (both are compared as displayed, clamped at 0)."""
+    rng = np.random.default_rng(2)
+    gt = rng.uniform(-0.2, 1.0, (3, 16, 16))
+    gt[:, :6] = rng.uniform(-0.2, -0.01, (3, 6, 16))  # a dark band entirely below zero
+    mask = np.ones((1, 16, 16))
+    assert image_ssim(gt, gt.copy(), mask) == pytest.approx(1.0, abs=1e-5)
+    assert compare_images(gt, gt.copy(), mask)["l2rgb"] == 0.0
+
+
+def test_ssim_compares_the_images_as_displayed():
+    """Two images that differ only below zero look the same (SSIM 1); one that differs
+    above zero does not."""
+    rng = np.random.default_rng(3)
+    gt = rng.uniform(0.1, 1.0, (3, 16, 16))
+    gt[:, :4] = -0.1
+    mask = np.ones((1, 16, 16))
+    darker = gt.copy()
+    darker[:, :4] = -0.5
+    assert image_ssim(gt, darker, mask) == pytest.approx(1.0, abs=1e-5)
+    brighter = gt.copy()
+    brighter[:, :4] = 0.3
+    assert image_ssim(gt, brighter, mask) < 0.99

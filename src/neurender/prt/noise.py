@@ -16,12 +16,11 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
-import torch
 from tqdm import tqdm
 
 from neurender import metrics
 from neurender.prt import frames, transfer
-from neurender.prt.scores import Predictions
+from neurender.prt.scores import Predictions, displayed
 from neurender.tables import tidy_rows
 
 
@@ -39,8 +38,8 @@ def noise_floor_rows(
 
     Two independently seeded ground truths with ``directions`` samples are relit (diffuse,
     albedo 1, the stage's light) in geometry-image space, divided by the reference
-    radiance's maximum so that images lie in [0, 1], and compared with each other and with
-    the clean reference.
+    radiance's maximum and clamped at 0 (:func:`neurender.prt.scores.displayed`), and
+    compared with each other and with the clean reference.
     """
     offset = frames.ray_offset(positions[0], cfg["ray_offset"])
     rows = []
@@ -53,8 +52,7 @@ def noise_floor_rows(
             for t in ("a", "b")
         ]
         imgs = radiance_images(np.stack([samples[0][0], samples[1][0], ref["T"]]), light)
-        scale = imgs[2].max()
-        a, b, r = (torch.from_numpy(np.ascontiguousarray(i[None] / scale)).double() for i in imgs)
+        a, b, r = (displayed(i, float(imgs[2].max())) for i in imgs)
         values = {
             "ssim_sample_vs_sample": metrics.ssim(a, b),
             "ssim_sample_vs_reference": metrics.ssim(a, r),
