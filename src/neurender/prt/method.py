@@ -253,7 +253,8 @@ STUDIES = (
             "everywhere) and gated by the disks' occlusion (the correction scaled per pixel "
             "by their occluded solid angle), retrained on the same data of a default run "
             "(8 epochs each, 64 x 64, 256 directions, references at 4096): relative L1 of "
-            "radiance and SSIM on the test frames."
+            "radiance and SSIM on the test frames. Its glossy SSIMs predate 05f4431 (only "
+            "the prediction clamped at 0, not the reference: lower than today's scores)."
         ),
         query="split == 'test' and model == 'DeepPRT shadowing'",
         index=("dataset", "metric"),
