@@ -180,24 +180,32 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     Rasterised per ball over its screen rectangle (a sphere impostor).
     """
     dtype = scene.centres.dtype
-    rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3)
-    dist, first = sphere_hits(scene, width)
-    hit = first < len(scene)
-    ball = first[hit]
-    colour = torch.zeros(3, width * width, dtype=dtype, device=scene.centres.device)
-    normal = torch.zeros_like(colour)
-    colour[:, hit] = scene.colours[ball].T
-    points = rays[hit] * dist[hit, None]
-    normal[:, hit] = (((points - scene.centres[ball]) / scene.radii[ball, None] + 1) / 2).T
+    rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3).T.contiguous()
+    dist, first = sphere_hits(scene, width, rays)
+    count = len(scene)
+    hit = first < count
+    # Every pixel gathers a ball (the last where none is hit) and is zeroed where none is:
+    # whole-image gathers cost less than indexing by a mask.
+    ball = first.clamp(max=count - 1)
+    colour = torch.where(hit, scene.colours.T.index_select(1, ball), 0)
+    # Channels first, as the G-buffers are laid out.
+    points = rays * torch.where(hit, dist, 0)
+    centres = scene.centres.T.index_select(1, ball)
+    normal = torch.where(hit, ((points - centres) / scene.radii[ball] + 1) / 2, 0)
     return from_hits(dist, colour, normal, width)
 
 
-def sphere_hits(scene: Scene, width: int) -> tuple[torch.Tensor, torch.Tensor]:
+def sphere_hits(
+    scene: Scene, width: int, rays: torch.Tensor | None = None
+) -> tuple[torch.Tensor, torch.Tensor]:
     """Per pixel ``(W * W,)`` (row-major) the distance along its ray to the nearest sphere
     of the scene's radii (``inf`` where none) and that sphere's ball (of tied ones the
-    lowest; ``len(scene)`` where none), rasterised per ball over its screen rectangle."""
-    rays = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3)
-    ray_axes = rays.T.contiguous()
+    lowest; ``len(scene)`` where none), rasterised per ball over its screen rectangle.
+    ``rays``: the :func:`pixel_rays` channels first, ``(3, W * W)``, when the caller has
+    them already."""
+    if rays is None:
+        rays = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3).T
+    ray_axes = rays.contiguous()
     offset = scene.centres.square().sum(1) - scene.radii.square()  # |c|^2 - r^2
     blocks = _footprints(_sphere_boxes(scene.centres, scene.radii, width), width)
     keys = []
