@@ -183,15 +183,16 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
     rays = pixel_rays(width, dtype, scene.centres.device).reshape(-1, 3).T.contiguous()
     dist, first = sphere_hits(scene, width, rays)
     count = len(scene)
-    hit = first < count
+    missed = first >= count
     # Every pixel gathers a ball (the last where none is hit) and is zeroed where none is:
-    # whole-image gathers cost less than indexing by a mask.
+    # whole-image gathers cost less than indexing by a mask where many pixels are hit, and
+    # in place, few image-sized temporaries (each a fresh allocation) where few are.
     ball = first.clamp(max=count - 1)
-    colour = torch.where(hit, scene.colours.T.index_select(1, ball), 0)
-    # Channels first, as the G-buffers are laid out.
-    points = rays * torch.where(hit, dist, 0)
-    centres = scene.centres.T.index_select(1, ball)
-    normal = torch.where(hit, ((points - centres) / scene.radii[ball] + 1) / 2, 0)
+    colour = scene.colours.T.index_select(1, ball).masked_fill_(missed, 0)
+    # Channels first, as the G-buffers are laid out: (hit point - centre) / r, encoded.
+    normal = rays * dist.masked_fill(missed, 0)
+    normal.sub_(scene.centres.T.index_select(1, ball)).div_(scene.radii[ball])
+    normal.add_(1).div_(2).masked_fill_(missed, 0)
     return from_hits(dist, colour, normal, width)
 
 
