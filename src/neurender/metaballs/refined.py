@@ -43,9 +43,10 @@ def refined_spheres(scene: Scene, width: int, steps: int = STEPS) -> GBuffers:
     """The scene's G-buffers by inflated impostors refined on the field (module docstring)."""
     dtype, device = scene.centres.dtype, scene.centres.device
     inflated = Scene(scene.centres, inflated_radii(scene), scene.colours)
-    dist, first = sphere_hits(inflated, width)
+    all_rays = pixel_rays(width, dtype, device).reshape(-1, 3)
+    dist, first = sphere_hits(inflated, width, all_rays.T)
     pixels = torch.nonzero(first < len(scene)).squeeze(1)
-    rays = pixel_rays(width, dtype, device).reshape(-1, 3)[pixels]
+    rays = all_rays[pixels]
     ball, t0 = first[pixels], dist[pixels]
     peak = (rays * scene.centres[ball]).sum(1)
     hi = torch.maximum(peak, t0)
