@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from neurender import io, sh
+from neurender import io, sh, train
 from neurender.jobs import copy_files
 from neurender.prt import data_jobs, frames, jobs
 from neurender.prt.local_model import ShadowingTransfer
@@ -128,7 +128,7 @@ def test_experiment_sequences(head, name):
 
 
 TRAIN = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-TRAIN |= {"lr_schedule": "cosine", "device": "cpu"}
+TRAIN |= {"shadowing_batch_size": 1, "shadowing_lr": 5e-4, "lr_schedule": "cosine", "device": "cpu"}
 
 
 @pytest.fixture(scope="module")
@@ -190,6 +190,19 @@ def test_each_variant_trains_into_a_checkpoint_both_engines_serve(
     assert io.read_csv(outputs["loss"]).epoch.max() == 1
     int8 = DeepPRT(outputs["checkpoint"], outputs["int8"], device="cpu", pytorch=False)
     assert int8.predict(val).shape == torch_pred.shape  # the same contract, ONNX Runtime alone
+
+
+@pytest.mark.parametrize(
+    ("variant", "batch_size", "lr"),
+    [("paper", TRAIN["batch_size"], TRAIN["lr"])]
+    + [("shadowing", TRAIN["shadowing_batch_size"], TRAIN["shadowing_lr"])],
+)
+def test_each_variant_trains_with_its_own_batch_size_and_learning_rate(
+    trained, variant, batch_size, lr
+):
+    _, files = trained
+    config = train.load_checkpoint(files[variant, "diffuse"]["checkpoint"])["config"]
+    assert (config["batch_size"], config["lr"]) == (batch_size, lr)
 
 
 def test_an_unknown_variant_is_refused_naming_it(trained, head):

@@ -137,6 +137,8 @@ READERS: dict[str, set[str]] = {
     "prt_model.epochs": {"prt_train"},
     "prt_model.batch_size": {"prt_train"},
     "prt_model.lr": {"prt_train"},
+    "prt_model.shadowing_batch_size": {"prt_train"},
+    "prt_model.shadowing_lr": {"prt_train"},
     "prt_model.residual_targets": {"prt_train"},
     "prt_model.lr_schedule": {"prt_train"},
     "prt_model.threads": set(),

@@ -91,9 +91,10 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     trained on an object's train split (val for model selection), and the selected
     network exported as its ONNX file (and in int8, ``int8``: its convolutions calibrated
     on the train split, :func:`~neurender.prt.model.export_int8`): ``paper``, the paper's U-Net
-    (:func:`~neurender.prt.training.train_deepprt`); ``shadowing``, the unshadowed
-    transfer plus a local network (:func:`~neurender.prt.training.train_local`; glossy
-    reads the SH ``light``)."""
+    (:func:`~neurender.prt.training.train_deepprt`, ``batch_size`` and ``lr``);
+    ``shadowing``, the unshadowed transfer plus a local network
+    (:func:`~neurender.prt.training.train_local`, ``shadowing_batch_size`` and
+    ``shadowing_lr``; glossy reads the SH ``light``)."""
     seq = io.load_npz(inputs["seq"])
     train_split, val_split = (
         split_frames(inputs, seq, s, params["n_bands"]) for s in ("train", "val")
@@ -113,8 +114,17 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         light = (
             frames.read_sh_light(inputs["light"], params["n_bands"]) if "light" in inputs else None
         )
+        # Its own batch size and learning rate (config keys shadowing_*).
+        steps = {"batch_size": params["shadowing_batch_size"], "lr": params["shadowing_lr"]}
         train_local(
-            train_split, val_split, local_cfg, params, *common, light, data_key, tensorboard
+            train_split,
+            val_split,
+            local_cfg,
+            params | steps,
+            *common,
+            light,
+            data_key,
+            tensorboard,
         )
     else:
         raise ValueError(

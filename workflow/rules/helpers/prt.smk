@@ -14,10 +14,16 @@ PRT_SHIPPED = config["prt_model"]["shipped"]
 PRT_USER_SEQUENCES = config["prt"]["user_sequences"]
 PRT_EXPERIMENTS = EXPERIMENTS if config["prt"]["experiments"] else ()
 PRT_LIGHT = f"results/prt/probes/{config['prt']['light']}_sh.csv"
+#: Training keys in one fixed order: snakemake compares a job's params as text, so a key
+#: added for one variant leaves the other's params, and its networks, as they were.
 PRT_TRAIN_KEYS = ("widths", "blocks", "epochs", "batch_size", "lr", "lr_schedule")
+PRT_TRAIN_KEYS += ("residual_targets", "shadowing_batch_size", "shadowing_lr")
 #: Keys that only one variant's training reads (the shadowing variant's architecture
 #: constants live in neurender.prt.local_model.LocalConfig, not in the config).
-PRT_VARIANT_KEYS = {"paper": ("residual_targets",), "shadowing": ()}
+PRT_VARIANT_KEYS = {
+    "paper": ("batch_size", "lr", "residual_targets"),
+    "shadowing": ("shadowing_batch_size", "shadowing_lr"),
+}
 PRT_TRANSFER_KEYS = ("n_bands", "direction_sets", "ray_offset")
 
 
@@ -92,7 +98,8 @@ def prt_benchmark_params():
 def prt_train_params(wildcards):
     """What a training job of one variant reads, so an edit of an evaluation key, or of a
     key only the other variant reads, never retrains."""
-    keys = PRT_TRAIN_KEYS + PRT_VARIANT_KEYS[wildcards.variant]
+    others = {k for v, ks in PRT_VARIANT_KEYS.items() if v != wildcards.variant for k in ks}
+    keys = tuple(k for k in PRT_TRAIN_KEYS if k not in others)
     return prt_params(
         ("n_bands",),
         keys,
