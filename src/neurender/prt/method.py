@@ -187,6 +187,9 @@ LEARNING_CURVE = "benchmarks/results/prt_learning_curve.csv"
 #: Issue 27's gated correction, ``benchmarks/prt_correction_runs.py``: the shadowing
 #: variant with and without its gate, retrained on the same data.
 CORRECTION = "benchmarks/results/prt_correction_runs.csv"
+#: The shadowing variant's own batch size, the same script: batch 5 (the paper form's)
+#: against 2 (``prt_model.shadowing_batch_size``), retrained on the same data.
+BATCH = "benchmarks/results/prt_batch_runs.csv"
 #: The rows both curves show. Their budgets: the study config's ``equal_steps`` (8 epochs
 #: over 240 frames, batch 5: 384 optimiser steps); baselines, untrained, have 0 epochs.
 _CURVE_METRIC = "metric == 'rel_l1_diffuse' and family != 'timing'"
@@ -274,6 +277,35 @@ STUDIES = (
         ),
         index=("dataset", "family"),
         columns=("model", "correction"),
+    ),
+    Study(
+        csv=BATCH,
+        title="Batch size of the shadowing variant: the test frames",
+        description=(
+            "The shadowing variant (gated) trained with the paper form's batch of 5 and "
+            "with its own batch of 2 (config key prt_model.shadowing_batch_size), both at "
+            "learning rate 2e-3 for 8 epochs on the same data of a default run (64 x 64, "
+            "256 directions, references at 4096): relative L1 of radiance and SSIM on the "
+            "test frames."
+        ),
+        query="split == 'test' and model == 'DeepPRT shadowing'",
+        index=("dataset", "metric"),
+        columns=("batch",),
+    ),
+    Study(
+        csv=BATCH,
+        title="Batch size of the shadowing variant: unseen deformations, glossy",
+        description=(
+            "The same two networks' relative L1 of glossy radiance on each unseen "
+            "deformation family (mean over strengths 0.25 to 1), beside the unshadowed and "
+            "static baselines (no learning)."
+        ),
+        query=(
+            "split == 'unseen' and metric == 'rel_l1_radiance_glossy' and "
+            "(model == 'DeepPRT shadowing' or (batch == 2 and model in ['static', 'unshadowed']))"
+        ),
+        index=("dataset", "family"),
+        columns=("model", "batch"),
     ),
     Study(
         csv="benchmarks/results/prt_width.csv",
