@@ -10,7 +10,9 @@ transfer with the pipeline's seeds: the test frames at ``reference_directions``)
 * ``shadowing``: the variant of :mod:`neurender.prt.local_model` (dilated core),
 
 for the same number of epochs over the same frames (``--epochs``; both cosine schedules
-over that many epochs, the config's learning rate and batch size), and scores them with
+over that many epochs, each at its own learning rate and batch size of the config, as the
+pipeline trains them: ``lr`` and ``batch_size`` the paper form's, ``shadowing_lr`` and
+``shadowing_batch_size`` the shadowing variant's), and scores them with
 the ``unshadowed`` and ``static`` baselines (:mod:`neurender.prt.unseen`) on the test
 frames and on every unseen-deformation family and strength, whose ground truth is traced
 at ``reference_directions``. Metrics per frame, averaged per (family, strength):
@@ -254,6 +256,8 @@ def train_run(
     """Train one run's model; its checkpoint and its diffuse prediction ``(F, K, n, n)``."""
     train = subset(data.split["train"], run.train_frames)
     cfg = {**train_cfg, "epochs": run.epochs}
+    if run.model == "shadowing":  # its own batch size and learning rate, as prt_train's
+        cfg |= {"batch_size": cfg["shadowing_batch_size"], "lr": cfg["shadowing_lr"]}
     ckpt = tmp / f"{data.name}_{run.model}_{run.epochs}_{run.train_frames}.pt"
     losses = str(ckpt.with_suffix(".csv"))
     if run.model == "paper":
@@ -352,11 +356,11 @@ class Rows:
     """The study's tidy rows (object, epochs, train_frames, steps, shadowing width and
     dilations, model, family, strength, metric, value)."""
 
-    def __init__(self, shadowing_cfg: LocalConfig, batch_size: int) -> None:
+    def __init__(self, shadowing_cfg: LocalConfig, batch_sizes: dict[str, int]) -> None:
         self.rows: list[dict] = []
         self.width = shadowing_cfg.width
         self.dilations = "-".join(map(str, shadowing_cfg.dilations))
-        self.batch_size = batch_size
+        self.batch_sizes = batch_sizes  # model -> its batch size (a baseline has none)
 
     def add(self, name, model, family, strength, values, run: Run | None, width=...) -> None:
         """Mean of each metric's values; ``run`` None for a baseline (0 epochs, frames and
@@ -369,7 +373,7 @@ class Rows:
                     "object": name,
                     "epochs": epochs,
                     "train_frames": n,
-                    "steps": epochs * -(-n // self.batch_size),
+                    "steps": epochs * -(-n // self.batch_sizes.get(model, 1)),
                     "shadowing_width": width,
                     "shadowing_dilations": None if width is None else self.dilations,
                     "model": model,
@@ -484,7 +488,8 @@ def main() -> None:
     light = sh.project_latlong(
         lights.procedural_probe(prt["light"], prt["probe_height"]), prt["n_bands"]
     )
-    rows, seconds = Rows(shadowing_cfg, model_cfg["batch_size"]), {}
+    batch_sizes = {"paper": model_cfg["batch_size"], "shadowing": model_cfg["shadowing_batch_size"]}
+    rows, seconds = Rows(shadowing_cfg, batch_sizes), {}
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     ctx = (config, shadowing_cfg, train_cfg, light, study is None)
@@ -528,7 +533,9 @@ def write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds
             f"{study['equal_steps']['frames']} training frames, and at "
             f"{study['train_frames']} evenly spaced training frames of a sequence of "
             f"{prt['frames']['train']} for the steps of {study['equal_steps']['epochs']} "
-            f"epochs over {study['equal_steps']['frames']} (batch {model_cfg['batch_size']}); "
+            f"epochs over {study['equal_steps']['frames']} (batch {model_cfg['batch_size']} "
+            f"for the paper's form, {model_cfg['shadowing_batch_size']} for the shadowing "
+            "variant); "
             f"val {prt['frames']['val']} picks the epoch"
         )
     else:
@@ -550,6 +557,7 @@ def write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds
             "light": prt["light"],
             "paper": {k: model_cfg[k] for k in ("widths", "blocks", "lr", "batch_size")},
             "shadowing": vars(shadowing_cfg),
+            "shadowing_training": {k: model_cfg[f"shadowing_{k}"] for k in ("lr", "batch_size")},
         },
         "seconds": {k: round(v, 1) for k, v in seconds.items()},
         "torch_threads": 1,

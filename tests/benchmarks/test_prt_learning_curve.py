@@ -20,19 +20,22 @@ sys.modules[_spec.name] = study_script  # its dataclasses look their module up t
 _spec.loader.exec_module(study_script)
 
 
-def _steps(run, batch_size=5):  # prt_model.batch_size in config/config.yaml
+def _steps(run, batch_size):
     return run.epochs * math.ceil(run.train_frames / batch_size)
 
 
-def test_the_shapes_sweep_trains_every_count_for_the_same_optimiser_steps():
+# The paper form's batch_size and the shadowing variant's shadowing_batch_size (schema
+# defaults), each model's sweep at its own.
+@pytest.mark.parametrize("batch_size", [5, 2])
+def test_the_shapes_sweep_trains_every_count_for_the_same_optimiser_steps(batch_size):
     study = yaml.safe_load((ROOT / "config/studies/deepprt.yaml").read_text())
     runs = study_script.study_runs(study, study["models"])
     base = study["equal_steps"]
-    steps = base["epochs"] * math.ceil(base["frames"] / 5)
+    steps = base["epochs"] * math.ceil(base["frames"] / batch_size)
     for n in study["train_frames"]:
         for model in study["models"]:
             matching = [r for r in runs if r.model == model and r.train_frames == n]
-            assert [_steps(r) for r in matching].count(steps) == 1, (model, n)
+            assert [_steps(r, batch_size) for r in matching].count(steps) == 1, (model, n)
     for e in study["epochs"]:
         for model in study["models"]:
             assert study_script.Run(model, e, base["frames"]) in runs
