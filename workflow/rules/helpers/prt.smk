@@ -98,7 +98,9 @@ def prt_benchmark_params():
 def prt_train_params(wildcards):
     """What a training job of one variant reads, so an edit of an evaluation key, or of a
     key only the other variant reads, never retrains."""
-    others = {k for v, ks in PRT_VARIANT_KEYS.items() if v != wildcards.variant for k in ks}
+    others = {
+        k for v, ks in PRT_VARIANT_KEYS.items() if v != wildcards.variant for k in ks
+    }
     keys = tuple(k for k in PRT_TRAIN_KEYS if k not in others)
     return prt_params(
         ("n_bands",),
