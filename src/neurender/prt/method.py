@@ -191,7 +191,8 @@ CORRECTION = "benchmarks/results/prt_correction_runs.csv"
 #: against 2 (``prt_model.shadowing_batch_size``), retrained on the same data.
 BATCH = "benchmarks/results/prt_batch_runs.csv"
 #: The rows both curves show. Their budgets: the study config's ``equal_steps`` (8 epochs
-#: over 240 frames, batch 5: 384 optimiser steps); baselines, untrained, have 0 epochs.
+#: over 240 frames: 1920 frame passes, at each model's batch size the same optimiser steps
+#: for every number of frames); baselines, untrained, have 0 epochs.
 _CURVE_METRIC = "metric == 'rel_l1_diffuse' and family != 'timing'"
 STUDIES = (
     Study(
@@ -202,9 +203,10 @@ STUDIES = (
             "deformation family (mean over strengths 0.25, 0.5 and 1) of the paper's model "
             "and the shadowing variant trained for 2, 4 and 8 epochs over the same 240 "
             "frames (evenly spaced over a training sequence of 480; 64 x 64, 256 "
-            "directions, references at 1024), beside the unshadowed and static baselines "
-            "(0 epochs). The shadowing variant as shipped at 7d190ad: disks, occlusion input, "
-            "its correction not yet gated."
+            "directions, references at 4096), beside the unshadowed and static baselines "
+            "(0 epochs). Each model at its own batch size and learning rate (the paper's "
+            "form batch 5, the shadowing variant 2, both lr 2e-3); the shadowing variant as "
+            "shipped at 8512885 (disks, occlusion input, gated correction)."
         ),
         query=f"{_CURVE_METRIC} and (train_frames == 240 or epochs == 0)",
         index=("object", "model", "epochs"),
@@ -215,11 +217,12 @@ STUDIES = (
         title="Learning curve: distinct training shapes at equal steps",
         description=(
             "The same error for 30 to 480 training frames, evenly spaced over one "
-            "sequence of 480, each trained for the same 384 optimiser steps (64 epochs "
-            "over 30 frames, 4 over 480): does variety of shapes help where more epochs "
-            "do not? Baselines at 0 frames. The shadowing variant as shipped at 7d190ad."
+            "sequence of 480, each model trained for the same optimiser steps at every "
+            "count (64 epochs over 30 frames, 4 over 480; 384 steps at the paper form's "
+            "batch of 5, 960 at the shadowing variant's 2): does variety of shapes help "
+            "where more epochs do not? Baselines at 0 frames. Same models as above."
         ),
-        query=f"{_CURVE_METRIC} and (steps == 384 or epochs == 0)",
+        query=f"{_CURVE_METRIC} and (epochs * train_frames == 1920 or epochs == 0)",
         index=("object", "model", "train_frames"),
         columns=("family",),
     ),
