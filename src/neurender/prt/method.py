@@ -190,6 +190,43 @@ CORRECTION = "benchmarks/results/prt_correction_runs.csv"
 #: The shadowing variant's own batch size, the same script: batch 5 (the paper form's)
 #: against 2 (``prt_model.shadowing_batch_size``), retrained on the same data.
 BATCH = "benchmarks/results/prt_batch_runs.csv"
+
+
+def _run_views(
+    csv: str, column: str, last: str | int, title: str, description: str, material: str
+) -> tuple[Study, Study]:
+    """The two views of a study of ``benchmarks/prt_correction_runs.py`` (runs of the model
+    stage on the same data, named in ``column``): the shipped variant's test scores per
+    run, and its relative L1 of ``material`` radiance on each unseen family per run beside
+    every other model of the run ``last``."""
+    return (
+        Study(
+            csv=csv,
+            title=f"{title}: the test frames",
+            description=description,
+            query="split == 'test' and model == 'DeepPRT shadowing'",
+            index=("dataset", "metric"),
+            columns=(column,),
+        ),
+        Study(
+            csv=csv,
+            title=f"{title}: unseen deformations, {material}",
+            description=(
+                f"The same networks' relative L1 of {material} radiance on each unseen "
+                "deformation family (mean over strengths 0.25 to 1), beside the paper's "
+                "form, MoMoPRT and the baselines that need no learning (disks, unshadowed, "
+                f"static) of the run {last}."
+            ),
+            query=(
+                f"split == 'unseen' and metric == 'rel_l1_radiance_{material}' and "
+                f"(model == 'DeepPRT shadowing' or {column} == {last!r})"
+            ),
+            index=("dataset", "family"),
+            columns=("model", column),
+        ),
+    )
+
+
 #: The rows both curves show. Their budgets: the study config's ``equal_steps`` (8 epochs
 #: over 240 frames: 1920 frame passes, at each model's batch size the same optimiser steps
 #: for every number of frames); baselines, untrained, have 0 epochs.
@@ -251,10 +288,12 @@ STUDIES = (
         index=("object", "family"),
         columns=("model", "epochs"),
     ),
-    Study(
-        csv=CORRECTION,
-        title="Gated correction: the test frames",
-        description=(
+    *_run_views(
+        CORRECTION,
+        "correction",
+        "gated",
+        "Gated correction",
+        (
             "The shadowing variant as shipped before dea4ca1 (its correction added "
             "everywhere) and gated by the disks' occlusion (the correction scaled per pixel "
             "by their occluded solid angle), retrained on the same data of a default run "
@@ -262,53 +301,21 @@ STUDIES = (
             "radiance and SSIM on the test frames. Its glossy SSIMs predate 05f4431 (only "
             "the prediction clamped at 0, not the reference: lower than today's scores)."
         ),
-        query="split == 'test' and model == 'DeepPRT shadowing'",
-        index=("dataset", "metric"),
-        columns=("correction",),
+        "diffuse",
     ),
-    Study(
-        csv=CORRECTION,
-        title="Gated correction: unseen deformations",
-        description=(
-            "The same two networks' relative L1 of diffuse radiance on each unseen "
-            "deformation family (mean over strengths 0.25 to 1), beside the disks alone "
-            "and the unshadowed and static baselines (no learning)."
-        ),
-        query=(
-            "split == 'unseen' and metric == 'rel_l1_radiance_diffuse' and "
-            "(model == 'DeepPRT shadowing' or correction == 'gated')"
-        ),
-        index=("dataset", "family"),
-        columns=("model", "correction"),
-    ),
-    Study(
-        csv=BATCH,
-        title="Batch size of the shadowing variant: the test frames",
-        description=(
+    *_run_views(
+        BATCH,
+        "batch",
+        2,
+        "Batch size of the shadowing variant",
+        (
             "The shadowing variant (gated) trained with the paper form's batch of 5 and "
             "with its own batch of 2 (config key prt_model.shadowing_batch_size), both at "
             "learning rate 2e-3 for 8 epochs on the same data of a default run (64 x 64, "
             "256 directions, references at 4096): relative L1 of radiance and SSIM on the "
             "test frames."
         ),
-        query="split == 'test' and model == 'DeepPRT shadowing'",
-        index=("dataset", "metric"),
-        columns=("batch",),
-    ),
-    Study(
-        csv=BATCH,
-        title="Batch size of the shadowing variant: unseen deformations, glossy",
-        description=(
-            "The same two networks' relative L1 of glossy radiance on each unseen "
-            "deformation family (mean over strengths 0.25 to 1), beside the unshadowed and "
-            "static baselines (no learning)."
-        ),
-        query=(
-            "split == 'unseen' and metric == 'rel_l1_radiance_glossy' and "
-            "(model == 'DeepPRT shadowing' or (batch == 2 and model in ['static', 'unshadowed']))"
-        ),
-        index=("dataset", "family"),
-        columns=("model", "batch"),
+        "glossy",
     ),
     Study(
         csv="benchmarks/results/prt_width.csv",
