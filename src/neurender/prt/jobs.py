@@ -115,12 +115,12 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
             frames.read_sh_light(inputs["light"], params["n_bands"]) if "light" in inputs else None
         )
         # Its own batch size and learning rate (config keys shadowing_*).
-        steps = {"batch_size": params["shadowing_batch_size"], "lr": params["shadowing_lr"]}
+        own = {"batch_size": params["shadowing_batch_size"], "lr": params["shadowing_lr"]}
         train_local(
             train_split,
             val_split,
             local_cfg,
-            params | steps,
+            params | own,
             *common,
             light,
             data_key,
