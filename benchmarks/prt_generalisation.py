@@ -85,7 +85,7 @@ from neurender.prt.model import (
     load_transfer_module,
     raw_inputs,
 )
-from neurender.prt.training import train_deepprt, train_local
+from neurender.prt.training import shadowing_training, train_deepprt, train_local
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -256,14 +256,14 @@ def train_run(
     """Train one run's model; its checkpoint and its diffuse prediction ``(F, K, n, n)``."""
     train = subset(data.split["train"], run.train_frames)
     cfg = {**train_cfg, "epochs": run.epochs}
-    if run.model == "shadowing":  # its own batch size and learning rate, as prt_train's
-        cfg |= {"batch_size": cfg["shadowing_batch_size"], "lr": cfg["shadowing_lr"]}
     ckpt = tmp / f"{data.name}_{run.model}_{run.epochs}_{run.train_frames}.pt"
     losses = str(ckpt.with_suffix(".csv"))
     if run.model == "paper":
         train_deepprt(train, data.split["val"], "diffuse", cfg, 1, str(ckpt), losses)
         return ckpt, DeepPRT(ckpt, device="cpu").predict
-    local = train_local(train, data.split["val"], shadowing_cfg, cfg, 1, str(ckpt), losses)
+    local = train_local(
+        train, data.split["val"], shadowing_cfg, shadowing_training(cfg), 1, str(ckpt), losses
+    )
 
     def predict(split: frames.Split) -> np.ndarray:
         with torch.no_grad():

@@ -21,7 +21,7 @@ from neurender.prt.local_model import (
     receptive_field,
 )
 from neurender.prt.model import DeepPRT, export_deepprt, export_int8
-from neurender.prt.training import train_local
+from neurender.prt.training import shadowing_training, train_local
 
 
 def _local(**fields):
@@ -307,3 +307,10 @@ def test_a_checkpoint_from_before_the_gate_loads_ungated(tmp_path):
     x = torch.from_numpy(_raw(_bumpy()))
     with torch.no_grad():
         torch.testing.assert_close(loaded(x), model(x))
+
+
+def test_shadowing_training_reads_the_variants_own_batch_size_and_learning_rate():
+    cfg = {"batch_size": 5, "lr": 1e-3, "shadowing_batch_size": 2, "shadowing_lr": 4e-3}
+    own = shadowing_training(cfg)
+    assert (own["batch_size"], own["lr"]) == (2, 4e-3)
+    assert (cfg["batch_size"], cfg["lr"]) == (5, 1e-3)  # the paper form's config untouched

@@ -44,7 +44,7 @@ from neurender.prt.local_model import LocalConfig
 from neurender.prt.model import DeepPRT, export_deepprt, export_int8
 from neurender.prt.momoprt import MoMoPRT
 from neurender.prt.scores import aggregate, score_frames
-from neurender.prt.training import train_deepprt, train_local
+from neurender.prt.training import shadowing_training, train_deepprt, train_local
 from neurender.prt.viewer import prt_view
 from neurender.tables import tidy_rows
 
@@ -114,13 +114,11 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         light = (
             frames.read_sh_light(inputs["light"], params["n_bands"]) if "light" in inputs else None
         )
-        # Its own batch size and learning rate (config keys shadowing_*).
-        own = {"batch_size": params["shadowing_batch_size"], "lr": params["shadowing_lr"]}
         train_local(
             train_split,
             val_split,
             local_cfg,
-            params | own,
+            shadowing_training(params),
             *common,
             light,
             data_key,

@@ -106,6 +106,13 @@ def _shadowing_previews(model, batch) -> tuple[torch.Tensor, torch.Tensor]:
     return 0.5 + model.shadowing(x, occlusion)[:, :3] / 4, 0.5 + z[:, :3] / 4
 
 
+def shadowing_training(cfg: dict) -> dict:
+    """``cfg`` with the shadowing variant's own batch size and learning rate (config keys
+    ``shadowing_batch_size``, ``shadowing_lr``) as the ``batch_size`` and ``lr`` that
+    :func:`train_local`'s loop reads (``batch_size`` and ``lr`` are the paper form's)."""
+    return cfg | {"batch_size": cfg["shadowing_batch_size"], "lr": cfg["shadowing_lr"]}
+
+
 def train_local(
     train_split: Split,
     val_split: Split,
