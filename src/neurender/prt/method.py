@@ -318,6 +318,21 @@ STUDIES = (
         "glossy",
     ),
     Study(
+        csv="benchmarks/results/prt_graph.csv",
+        title="Shipped shadowing graph: milliseconds per part",
+        description=(
+            "Median ONNX Runtime milliseconds of one 64 x 64 frame of the default config's "
+            "shadowing variant (weights at initialisation: the time does not depend on "
+            "them) per material, part and thread count: the unshadowed transfer, the "
+            "disks' occlusion (16 x 16 blocks, 65,536 pairs), the local features, the core "
+            "network (5 dilated 3x3 layers of 48 channels) and the whole graph as shipped. "
+            "The CSV also holds PyTorch's times and the export check."
+        ),
+        index=("material", "part"),
+        columns=("threads",),
+        values="onnxruntime_ms",
+    ),
+    Study(
         csv="benchmarks/results/prt_width.csv",
         title="Width of the shadowing network",
         description=(
