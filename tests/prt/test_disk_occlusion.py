@@ -8,7 +8,14 @@ import pytest
 import torch
 
 from neurender import sh
-from neurender.prt.disk_occlusion import block_stride, occluded_transfer, vector_area
+from neurender.prt.disk_occlusion import (
+    block_stride,
+    occluded_transfer,
+    sh_of_monomials,
+    vector_area,
+    weighted_moments,
+)
+from neurender.prt.unshadowed import monomial_exponents
 
 
 def _raw(positions: np.ndarray, normals: np.ndarray) -> torch.Tensor:
@@ -35,6 +42,69 @@ def test_vector_area_of_a_plane_is_its_area_along_its_normal():
     a = vector_area(p)[0]
     assert torch.allclose(a[2], torch.full((7, 7), 0.25, dtype=a.dtype))
     assert torch.all(a[:2] == 0)
+
+
+def _bumps(n: int):
+    """A bumpy height field over the unit square and its unit normals, ``(n, n, 3)`` each."""
+    t = np.linspace(0.0, 1.0, n)
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    z = 0.3 * np.sin(7 * xx) * np.cos(5 * yy)
+    dzdx, dzdy = 2.1 * np.cos(7 * xx) * np.cos(5 * yy), -1.5 * np.sin(7 * xx) * np.sin(5 * yy)
+    normals = np.stack([-dzdx, -dzdy, np.ones_like(z)], -1)
+    return np.stack([xx, yy, z], -1), normals / np.linalg.norm(normals, axis=-1, keepdims=True)
+
+
+@pytest.mark.parametrize("n_bands", [1, 2, 3, 4, 5])
+def test_sh_of_monomials_gives_the_basis_at_unit_vectors(n_bands):
+    dirs = np.random.default_rng(3).normal(size=(50, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    exps = monomial_exponents(n_bands - 1)
+    powers = np.stack([np.prod(dirs**e, axis=1) for e in exps], 1)
+    np.testing.assert_allclose(
+        powers @ sh_of_monomials(n_bands), sh.eval_sh(dirs, n_bands), atol=1e-12
+    )
+
+
+def test_weighted_moments_are_the_sums_of_weighted_monomials():
+    rng = np.random.default_rng(4)
+    weights, x, y, z = (torch.from_numpy(rng.normal(size=(2, 3, 7))) for _ in range(4))
+    got = weighted_moments(weights, [x, y, z], 3).numpy()
+    for m, (a, b, c) in enumerate(monomial_exponents(3)):
+        want = (weights * x**a * y**b * z**c).sum(-1).numpy()
+        np.testing.assert_allclose(got[..., m], want, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("glossy", [False, True])
+def test_it_is_the_sum_over_element_pairs_of_the_module_docstring(glossy):
+    """One-pixel blocks (``grid = n``): every receiver's estimate equals a direct sum over
+    the other elements of ``Omega_e max(0, n . w_e) y_k(w_e)`` (diffuse) or ``Omega_e
+    [n . w_e > 0] L(w_e) y_k(w_e)`` (glossy), the elements' vector areas from
+    :func:`vector_area`."""
+    n, n_bands = 6, 3
+    positions, normals = _bumps(n)
+    light = np.random.default_rng(5).normal(size=(n_bands**2, 3)) if glossy else None
+    x = _raw(positions, normals)
+    got = occluded_transfer(
+        x, n_bands, grid=n, light=None if light is None else torch.from_numpy(light)
+    )
+    got = got[0].numpy().reshape(-1, n_bands**2, n * n)  # (C, K, R)
+    areas = np.moveaxis(vector_area(x[:, :3])[0].numpy(), 0, -1).reshape(-1, 3)
+    p, nrm = positions.reshape(-1, 3), normals.reshape(-1, 3)
+    for r in range(n * n):
+        want = np.zeros((got.shape[0], n_bands**2))
+        for e in range(n * n):
+            if e == r:
+                continue
+            v = p[e] - p[r]
+            d2 = v @ v
+            w = v / math.sqrt(d2)
+            omega = 2 * math.pi * (1 - 1 / math.sqrt(1 + abs(areas[e] @ w) / (math.pi * d2)))
+            y = sh.eval_sh(w, n_bands)
+            if light is None:
+                want[0] += omega * max(0.0, nrm[r] @ w) * y
+            elif nrm[r] @ w > 0:
+                want += omega * np.outer(y @ light, y)
+        np.testing.assert_allclose(got[:, :, r], want, rtol=1e-9, atol=1e-12)
 
 
 def test_a_flat_plane_occludes_nothing():

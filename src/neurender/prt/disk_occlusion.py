@@ -14,6 +14,14 @@ occlude (a cloth is two-sided). The transfer the elements remove is then, in the
 * glossy ``o_{c,k} = sum_e Omega_e [n . w_e > 0] L_c(w_e) y_k(w_e)`` for an SH light
   ``L`` (colour-major, as :func:`neurender.prt.unshadowed.glossy`).
 
+The diffuse sum is computed from moments: band ``l`` of the SH is a polynomial of degree
+``l`` in ``w``, so ``o_k`` is a fixed linear map (:func:`sh_of_monomials`) of the weighted
+sums ``sum_e W_e w_e^a`` over the monomials of degree ``< n_bands``
+(:func:`weighted_moments`), which take fewer element-wise operations over the pairs than
+the basis at every pair (in ONNX Runtime, 1.55 against 0.97 ms a 64 x 64 frame on one
+Intel Xeon thread). The glossy sum is of degree ``2 (n_bands - 1)`` and keeps the basis
+(its moments were slower).
+
 Elements are not depth-sorted, so overlapping occluders are counted twice (Bunnell's
 multi-pass correction is not done): the estimate is what a network corrects, not the
 answer. Emitters and receivers are the same ``grid x grid`` blocks of the geometry
@@ -26,13 +34,16 @@ raw P and N.
 
 from __future__ import annotations
 
+import functools
 import math
 
+import numpy as np
 import torch
 import torch.nn.functional as F  # noqa: N812 - the usual name
 
 from neurender import sh
 from neurender.geometry import dot_components
+from neurender.prt.unshadowed import monomial_exponents, monomials
 
 #: Blocks per side of the emitters and receivers by default (65,536 pairs).
 DEFAULT_GRID = 16
@@ -62,6 +73,43 @@ def block_stride(n: int, grid: int) -> int:
     if grid < 1:
         raise ValueError(f"occlusion grid {grid}: expected at least 1")
     return next(s for s in range(max(1, n // grid), 0, -1) if n % s == 0)
+
+
+@functools.cache
+def sh_of_monomials(n_bands: int) -> np.ndarray:
+    """``(M, K)`` float64 ``C`` with ``sh.eval_sh(w, n_bands) = monomials(w, n_bands - 1) @ C``
+    for unit vectors ``w`` (:func:`neurender.prt.unshadowed.monomials`; band ``l`` is a
+    polynomial of degree ``l``), fitted by least squares at 400 random unit vectors: exact
+    to rounding, since the basis lies in the span of the monomials on the sphere."""
+    sh.check_bands(n_bands)
+    dirs = np.random.default_rng(0).normal(size=(400, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    coeffs, *_ = np.linalg.lstsq(
+        monomials(dirs, n_bands - 1), sh.eval_sh(dirs, n_bands), rcond=1e-10
+    )
+    return coeffs
+
+
+def weighted_moments(weights: torch.Tensor, w: list[torch.Tensor], degree: int) -> torch.Tensor:
+    """``(..., M)`` sums over the last axis of ``weights * x^a y^b z^c``, one per exponent
+    of :func:`neurender.prt.unshadowed.monomial_exponents` of ``degree``, for ``weights``
+    and the components ``w = [x, y, z]`` all of one shape ``(..., E)``.
+
+    Each product is its parent's (one power less) times one component; those of the top
+    degree are summed without being kept."""
+    products = {(0, 0, 0): weights}
+    sums = []
+    for e in monomial_exponents(degree):
+        if sum(e) == 0:
+            sums.append(weights.sum(-1, keepdim=True))
+            continue
+        axis = next(k for k in range(3) if e[k])
+        parent = tuple(p - (k == axis) for k, p in enumerate(e))
+        product = products[parent] * w[axis]
+        if sum(e) < degree:
+            products[e] = product
+        sums.append(product.sum(-1, keepdim=True))
+    return torch.cat(sums, -1)
 
 
 def occluded_transfer(
@@ -96,15 +144,17 @@ def occluded_transfer(
     facing = dot_components([a[:, None, :] for a in areas], w).abs()
     omega = 2.0 * math.pi * (1.0 - torch.rsqrt(1.0 + facing / (math.pi * d2)))
     cosine = dot_components([nc[:, :, None] for nc in receiver_normals], w)
-    y = sh.eval_sh(torch.stack(w, 2), n_bands, axis=2)  # (B, R, K, E)
-    # Sums over the emitters as batched matrix products with y transposed,
-    # (B, R, ., E) @ (B, R, E, K), which ONNX Runtime fuses into one product.
     if light is None:
-        weights = (omega * cosine.clamp_min(0.0))[:, :, None, :]  # (B, R, 1, E)
+        moments = weighted_moments(omega * cosine.clamp_min(0.0), w, n_bands - 1)  # (B, R, M)
+        to_sh = torch.as_tensor(sh_of_monomials(n_bands), dtype=x.dtype, device=x.device)
+        blocks = (moments @ to_sh).transpose(1, 2)  # (B, K, R)
     else:
+        y = sh.eval_sh(torch.stack(w, 2), n_bands, axis=2)  # (B, R, K, E)
         radiance = light.to(y.dtype).T @ y  # (B, R, 3, E)
         weights = (omega * (cosine > 0).to(omega.dtype))[:, :, None, :] * radiance
-    blocks = (weights @ y.transpose(2, 3)).permute(0, 2, 3, 1).flatten(1, 2)  # (B, C K, R)
+        # Sums over the emitters as batched matrix products with y transposed,
+        # (B, R, 3, E) @ (B, R, E, K), which ONNX Runtime fuses into one product.
+        blocks = (weights @ y.transpose(2, 3)).permute(0, 2, 3, 1).flatten(1, 2)  # (B, 3 K, R)
     side = n // stride
     blocks = blocks.reshape(batch, -1, side, side)
     if side == n:

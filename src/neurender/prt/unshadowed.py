@@ -71,12 +71,21 @@ def monomials(
     normals: np.ndarray | torch.Tensor, degree: int, axis: int = -1
 ) -> np.ndarray | torch.Tensor:
     """``(..., M)`` monomials of :func:`monomial_exponents` at ``normals`` ``(..., 3)``;
-    components and monomials along ``axis``."""
+    components and monomials along ``axis``. Each is its parent's (one power less) times
+    one component: one product per monomial (in an ONNX graph, half the time of powers)."""
     if isinstance(normals, np.ndarray):
-        x, y, z = np.moveaxis(normals, axis, 0)
+        components = list(np.moveaxis(normals, axis, 0))
     else:
-        x, y, z = normals.unbind(axis)
-    cols = [x**a * y**b * z**c for a, b, c in monomial_exponents(degree)]
+        components = list(normals.unbind(axis))
+    by_exponent = {}
+    for e in monomial_exponents(degree):
+        if sum(e) == 0:
+            by_exponent[e] = components[0] * 0.0 + 1.0
+            continue
+        k = next(k for k in range(3) if e[k])
+        parent = tuple(p - (i == k) for i, p in enumerate(e))
+        by_exponent[e] = by_exponent[parent] * components[k]
+    cols = list(by_exponent.values())
     if isinstance(normals, np.ndarray):
         return np.stack(cols, axis)
     import torch
