@@ -18,9 +18,9 @@ The diffuse sum is computed from moments: band ``l`` of the SH is a polynomial o
 ``l`` in ``w``, so ``o_k`` is a fixed linear map (:func:`sh_of_monomials`) of the weighted
 sums ``sum_e W_e w_e^a`` over the monomials of degree ``< n_bands``
 (:func:`weighted_moments`), which take fewer element-wise operations over the pairs than
-the basis at every pair (in ONNX Runtime, 1.55 against 0.97 ms a 64 x 64 frame on one
-Intel Xeon thread). The glossy sum is of degree ``2 (n_bands - 1)`` and keeps the basis
-(its moments were slower).
+the basis at every pair (ONNX Runtime, a 64 x 64 frame: 0.92 ms against 1.61,
+``benchmarks/prt_graph.py``). The glossy sum is of degree ``2 (n_bands - 1)`` and keeps
+the basis (its moments were slower).
 
 Elements are not depth-sorted, so overlapping occluders are counted twice (Bunnell's
 multi-pass correction is not done): the estimate is what a network corrects, not the
