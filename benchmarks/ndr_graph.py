@@ -43,8 +43,8 @@ from neurender.ndr.shipped import DYNAMIC_AXES, INPUTS, ShadingPart, ShippedNDR,
 from neurender.ndr.variants import VARIANTS
 from neurender.nn.inference import (
     OnnxNetwork,
-    engine_milliseconds,
     export_onnx,
+    part_rows,
     quantize_convolutions,
 )
 from neurender.provenance import git_state
@@ -122,27 +122,11 @@ def main() -> None:
             quantize_convolutions(files[name], target, [dict(zip(names, arrays, strict=True))])
             reference, quantized = (OnnxNetwork(f)(*arrays) for f in (files[name], target))
             int8[f"{name}, int8 convolutions"] = (target, arrays, np.abs(quantized - reference))
+        timed_parts = {name: (m, files[name], x) for name, (m, x, _) in parts.items()}
         for threads in (1, 2):
-            # The machine is shared: the parts are timed in turn, ROUNDS times, and each
-            # keeps its least loaded round.
-            best: dict[str, dict[str, float]] = {}
-            for _ in range(ROUNDS):
-                for name, (module, x, _) in parts.items():
-                    ms = engine_milliseconds(module, files[name], x, threads)
-                    best[name] = {e: min(t, best.get(name, ms)[e]) for e, t in ms.items()}
-            for name in parts:
-                rows.append(
-                    {
-                        "part": name,
-                        "threads": threads,
-                        "onnxruntime_ms": best[name]["onnxruntime"],
-                        "pytorch_ms": best[name]["pytorch"],
-                        "max_abs_diff_vs_pytorch": errors[name],
-                        "onnx_bytes": files[name].stat().st_size,
-                        "hardware": hardware(threads, "cpu"),
-                    }
-                )
-                print(rows[-1], flush=True)
+            for row in part_rows(timed_parts, errors, threads, ROUNDS):
+                rows.append(row)
+                print(row, flush=True)
             for name, (target, arrays, difference) in int8.items():
                 session = OnnxNetwork(target, threads)
                 ms = min(timed(session, *arrays, repeats=21, warmup=2)[1] for _ in range(ROUNDS))

@@ -34,11 +34,10 @@ import torch
 from torch import nn
 
 from neurender import io
-from neurender.nn.inference import engine_milliseconds, export_onnx, prepare_for_inference
+from neurender.nn.inference import export_onnx, part_rows, prepare_for_inference
 from neurender.provenance import git_state
 from neurender.prt import unshadowed
 from neurender.prt.local_model import LocalConfig, ShadowingTransfer, local_features
-from neurender.timing import hardware
 
 #: Geometry image side, pixels; SH bands of the transfer.
 SIDE, N_BANDS = 64, 4
@@ -127,27 +126,10 @@ def main() -> None:
                 files[name] = Path(tmp) / f"{material}_{k}.onnx"
                 pair = torch.cat([inputs, inputs])  # the export needs a batch of 2
                 errors[name] = export_onnx(module, pair, files[name], rtol=1e-4)
+            timed_parts = {name: (m, files[name], (x_,)) for name, (m, x_) in parts.items()}
             for threads in (1, 2):
-                # The machine is shared: the parts are timed in turn, ROUNDS times, and
-                # each keeps its least loaded round.
-                best: dict[str, dict[str, float]] = {}
-                for _ in range(ROUNDS):
-                    for name, (module, inputs) in parts.items():
-                        ms = engine_milliseconds(module, files[name], (inputs,), threads)
-                        best[name] = {e: min(t, best.get(name, ms)[e]) for e, t in ms.items()}
-                for name in parts:
-                    rows.append(
-                        {
-                            "material": material,
-                            "part": name,
-                            "threads": threads,
-                            "onnxruntime_ms": best[name]["onnxruntime"],
-                            "pytorch_ms": best[name]["pytorch"],
-                            "max_abs_diff_vs_pytorch": errors[name],
-                            "onnx_bytes": files[name].stat().st_size,
-                            "hardware": hardware(threads, "cpu"),
-                        }
-                    )
+                for row in part_rows(timed_parts, errors, threads, ROUNDS):
+                    rows.append({"material": material, **row})
                     print(rows[-1], flush=True)
     io.write_csv(Path(args.out).with_suffix(".csv"), pd.DataFrame(rows))
     Path(f"{args.out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")

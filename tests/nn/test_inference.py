@@ -1,3 +1,5 @@
+import itertools
+
 import numpy as np
 import pytest
 import torch
@@ -8,6 +10,8 @@ from neurender.nn.inference import (
     channel_average_convolutions,
     export_onnx,
     fold_batch_norms,
+    least_loaded_milliseconds,
+    part_rows,
     prepare_for_inference,
     quantize_convolutions,
 )
@@ -200,3 +204,47 @@ def test_int8_keeps_the_channel_averages_float_and_quantizes_the_learnt_kernels(
     average = next(n for n in graph.node if n.name == averages[0])
     producers = {o: n.op_type for n in graph.node for o in n.output}
     assert producers[average.input[0]] != "DequantizeLinear"  # float32 in, not int8
+
+
+def test_least_loaded_milliseconds_keeps_each_engines_fastest_round(monkeypatch):
+    """Parts are timed in turn, round after round; each engine keeps its minimum over the
+    rounds, which for a part may come from different rounds for the two engines."""
+    calls = []
+    times = itertools.cycle(
+        [
+            {"pytorch": 5.0, "onnxruntime": 2.0},  # a, round 1
+            {"pytorch": 9.0, "onnxruntime": 9.0},  # b, round 1
+            {"pytorch": 3.0, "onnxruntime": 4.0},  # a, round 2
+            {"pytorch": 8.0, "onnxruntime": 7.0},  # b, round 2
+        ]
+    )
+
+    def fake(module, onnx_file, inputs, threads):
+        calls.append((onnx_file, threads))
+        return next(times)
+
+    monkeypatch.setattr("neurender.nn.inference.engine_milliseconds", fake)
+    parts = {"a": (nn.Identity(), "a.onnx", ()), "b": (nn.Identity(), "b.onnx", ())}
+    best = least_loaded_milliseconds(parts, threads=2, rounds=2)
+    assert calls == [("a.onnx", 2), ("b.onnx", 2)] * 2  # in turn, round after round
+    assert best == {
+        "a": {"pytorch": 3.0, "onnxruntime": 2.0},
+        "b": {"pytorch": 8.0, "onnxruntime": 7.0},
+    }
+
+
+def test_part_rows_name_each_part_its_times_check_and_file_size(monkeypatch, tmp_path):
+    monkeypatch.setattr(
+        "neurender.nn.inference.engine_milliseconds",
+        lambda module, onnx_file, inputs, threads: {"pytorch": 3.0, "onnxruntime": 1.5},
+    )
+    graph = tmp_path / "g.onnx"
+    graph.write_bytes(b"x" * 17)
+    (row,) = part_rows({"g": (nn.Identity(), graph, ())}, {"g": 1e-6}, threads=2, rounds=2)
+    assert row["part"] == "g" and row["threads"] == 2 and row["onnx_bytes"] == 17
+    assert (row["onnxruntime_ms"], row["pytorch_ms"], row["max_abs_diff_vs_pytorch"]) == (
+        1.5,
+        3.0,
+        1e-6,
+    )
+    assert "2 threads" in row["hardware"]

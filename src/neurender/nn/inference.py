@@ -29,7 +29,7 @@ from torch.nn.utils.fusion import fuse_conv_bn_eval
 
 from neurender.io import atomic_path
 from neurender.nn.norms import centre_pixel_norm_inputs
-from neurender.timing import timed
+from neurender.timing import hardware, timed
 
 log = logging.getLogger(__name__)
 
@@ -332,3 +332,44 @@ def engine_milliseconds(
         torch.set_num_threads(before)
     _, onnx_s = timed(session, *arrays, repeats=21, warmup=2)
     return {"pytorch": 1000 * torch_s, "onnxruntime": 1000 * onnx_s}
+
+
+def least_loaded_milliseconds(
+    parts: Mapping[str, tuple[nn.Module, str | Path, tuple[torch.Tensor, ...]]],
+    threads: int,
+    rounds: int = 3,
+) -> dict[str, dict[str, float]]:
+    """Per part (a module, its ONNX file and its inputs), :func:`engine_milliseconds` on
+    ``threads`` threads, the parts timed in turn ``rounds`` times and each engine's least
+    loaded round kept: on a shared machine, a part's time is not one busy moment's."""
+    best: dict[str, dict[str, float]] = {}
+    for _ in range(rounds):
+        for name, (module, onnx_file, inputs) in parts.items():
+            ms = engine_milliseconds(module, onnx_file, inputs, threads)
+            best[name] = {e: min(t, best.get(name, ms)[e]) for e, t in ms.items()}
+    return best
+
+
+def part_rows(
+    parts: Mapping[str, tuple[nn.Module, str | Path, tuple[torch.Tensor, ...]]],
+    errors: Mapping[str, float],
+    threads: int,
+    rounds: int = 3,
+) -> list[dict]:
+    """A benchmark's rows of the parts of a graph, one per part timed by
+    :func:`least_loaded_milliseconds`: ``part``, ``threads``, ``onnxruntime_ms``,
+    ``pytorch_ms``, ``max_abs_diff_vs_pytorch`` (``errors[part]``, its export check),
+    ``onnx_bytes`` and ``hardware``."""
+    best = least_loaded_milliseconds(parts, threads, rounds)
+    return [
+        {
+            "part": name,
+            "threads": threads,
+            "onnxruntime_ms": best[name]["onnxruntime"],
+            "pytorch_ms": best[name]["pytorch"],
+            "max_abs_diff_vs_pytorch": errors[name],
+            "onnx_bytes": Path(onnx_file).stat().st_size,
+            "hardware": hardware(threads, "cpu"),
+        }
+        for name, (_, onnx_file, _) in parts.items()
+    ]
