@@ -115,3 +115,11 @@ def test_channels_first_images_give_the_per_pixel_transfer(library):
     ):
         expected = np.asarray(per_pixel).transpose(0, 3, 1, 2)
         np.testing.assert_allclose(np.asarray(channels_first), expected, atol=1e-12)
+
+
+def test_monomial_parent_is_one_power_less_along_its_axis():
+    for e in unshadowed.monomial_exponents(4)[1:]:
+        parent, axis = unshadowed.monomial_parent(e)
+        assert parent in unshadowed.monomial_exponents(sum(e) - 1)
+        assert e[axis] == parent[axis] + 1
+        assert all(e[k] == parent[k] for k in range(3) if k != axis)

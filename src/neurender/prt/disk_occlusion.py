@@ -43,7 +43,7 @@ import torch.nn.functional as F  # noqa: N812 - the usual name
 
 from neurender import sh
 from neurender.geometry import dot_components
-from neurender.prt.unshadowed import monomial_exponents, monomials
+from neurender.prt.unshadowed import monomial_exponents, monomial_parent, monomials
 
 #: Blocks per side of the emitters and receivers by default (65,536 pairs).
 DEFAULT_GRID = 16
@@ -103,8 +103,7 @@ def weighted_moments(weights: torch.Tensor, w: list[torch.Tensor], degree: int) 
         if sum(e) == 0:
             sums.append(weights.sum(-1, keepdim=True))
             continue
-        axis = next(k for k in range(3) if e[k])
-        parent = tuple(p - (k == axis) for k, p in enumerate(e))
+        parent, axis = monomial_parent(e)
         product = products[parent] * w[axis]
         if sum(e) < degree:
             products[e] = product

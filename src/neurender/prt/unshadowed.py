@@ -67,6 +67,13 @@ def monomial_exponents(degree: int) -> list[tuple[int, int, int]]:
     ]
 
 
+def monomial_parent(exponent: tuple[int, int, int]) -> tuple[tuple[int, int, int], int]:
+    """The exponent one power less along the first axis ``exponent`` has, and that axis:
+    the monomial of ``exponent`` is its parent's times that component (not for 0, 0, 0)."""
+    axis = next(k for k in range(3) if exponent[k])
+    return tuple(p - (k == axis) for k, p in enumerate(exponent)), axis
+
+
 def monomials(
     normals: np.ndarray | torch.Tensor, degree: int, axis: int = -1
 ) -> np.ndarray | torch.Tensor:
@@ -82,8 +89,7 @@ def monomials(
         if sum(e) == 0:
             by_exponent[e] = components[0] * 0.0 + 1.0
             continue
-        k = next(k for k in range(3) if e[k])
-        parent = tuple(p - (i == k) for i, p in enumerate(e))
+        parent, k = monomial_parent(e)
         by_exponent[e] = by_exponent[parent] * components[k]
     cols = list(by_exponent.values())
     if isinstance(normals, np.ndarray):
