@@ -68,7 +68,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-import yaml
 
 from neurender import io, lights, sh
 from neurender.nn.inference import engine_milliseconds, export_onnx
@@ -337,7 +336,7 @@ def parse_args() -> argparse.Namespace:
 
 def read_study(path: str, args: argparse.Namespace) -> dict:
     """A study config, its keys checked, with the command line's explicit choices applied."""
-    study = yaml.safe_load(Path(path).read_text())
+    study = io.read_yaml(path)
     keys = {"objects", "models", "epochs", "train_frames", "equal_steps"}
     keys |= {"strengths", "per_strength"}
     if not isinstance(study, dict) or set(study) != keys:

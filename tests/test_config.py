@@ -139,7 +139,9 @@ def test_unknown_objects_and_missing_user_files_are_refused(smoke, tmp_path):
     assert found and "prt.objects entry 'teapot' is neither built in" in found[0]
     missing = {"blob": str(tmp_path / "blob.obj")}
     found = rules.problems(_with(smoke, "prt.user_meshes", missing))
-    assert found == [f"prt user entry 'blob': file {tmp_path / 'blob.obj'} does not exist"]
+    (problem,) = found
+    assert problem.startswith(f"prt.user_meshes.blob = '{tmp_path / 'blob.obj'}': does not ")
+    assert "expected a mesh file (.obj" in problem
     found = rules.problems(_with(smoke, "prt.light", "studio"))
     assert found == ["prt.light = 'studio': expected one of prt.probes ['sky', 'sunset']"]
 
@@ -201,6 +203,27 @@ def test_the_dry_run_names_the_new_key_before_the_schema_refuses_the_old_one(tmp
         f"rename the section in {old}"
     ) in out
     assert "Additional properties" not in out  # the rename's message, not the schema's
+
+
+def test_a_key_set_twice_in_a_config_file_is_refused_naming_file_key_and_lines(tmp_path):
+    top, nested, ok = tmp_path / "top.yaml", tmp_path / "nested.yaml", tmp_path / "ok.json"
+    top.write_text("ndr:\n  width: 32\nseed: 3\nndr:\n  width: 64\n")
+    nested.write_text("ndr:\n  width: 32\n  depth: 2\n  width: 64\n")
+    ok.write_text('{\n\t"ndr": {"width": 32}\n}\n')  # JSON, as Snakemake also reads
+    rules.check_files([ROOT / "config/config.yaml", ROOT / "config/smoke.yaml", ok])
+    with pytest.raises(rules.ConfigError) as raised:
+        rules.check_files([ok, top, nested])
+    message = str(raised.value)
+    assert f"{top}: key 'ndr' is set twice, on lines 1 and 4" in message
+    assert f"{nested}: key 'ndr.width' is set twice, on lines 2 and 4" in message
+    assert str(ok) not in message
+
+
+def test_the_dry_run_refuses_a_config_file_that_sets_a_key_twice(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("metaballs:\n  balls: [2, 4]\nseed: 3\nmetaballs:\n  balls: [3, 5]\n")
+    out = _refused_dry_run(bad)
+    assert f"{bad}: key 'metaballs' is set twice, on lines 1 and 4" in out
 
 
 #: Where the workflow's own files live (not tests/ or docs/, which may quote old names).
@@ -310,3 +333,15 @@ def test_a_coarse_map_too_large_for_the_prefilter_is_refused(smoke):
     expected = "ndr.coarse_height = 64: expected at most 32 with ndr.coarse_shading = prefiltered"
     assert any(f.startswith(expected) for f in found), found
     assert not any("at most 32" in f for f in rules.problems(_with(smoke, "ndr.coarse_height", 64)))
+
+
+@pytest.mark.parametrize("seed", [2**31, 2**32, -1])
+def test_the_schema_refuses_a_seed_outside_32_bits(smoke, seed):
+    from snakemake.exceptions import WorkflowError
+
+    with pytest.raises(WorkflowError, match=r"seed"):
+        validate(_with(smoke, "seed", seed), str(ROOT / "workflow/schemas/config.schema.yaml"))
+
+
+def test_the_schema_takes_the_largest_seed_mitsuba_can_offset(smoke):
+    validate(_with(smoke, "seed", 2**31 - 1), str(ROOT / "workflow/schemas/config.schema.yaml"))

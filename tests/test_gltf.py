@@ -71,6 +71,42 @@ def test_a_textured_part_and_a_plain_part_make_two_materials():
     np.testing.assert_array_equal(image, np.round(texture * 255).astype(np.uint8))
 
 
+def _rock(offset) -> gltf.Primitive:
+    """A 2 m icosphere centred at ``offset``, with its normals."""
+    sphere = trimesh.creation.icosphere(2)
+    normals = np.asarray(sphere.vertex_normals)
+    return gltf.Primitive(np.asarray(sphere.vertices) + offset, np.asarray(sphere.faces), normals)
+
+
+def test_a_mesh_far_from_the_origin_reads_back_to_float32_precision_of_its_own_size():
+    """A 2 m rock in georeferenced coordinates (UTM, metres): the node's translation
+    (float64 in the JSON) carries the offset and POSITION small float32 offsets from it, so
+    trimesh, applying the node's transform, places every vertex to float32's precision of
+    the rock's size (absolute float32 coordinates at y ~ 5.4e6 m are 0.5 m apart)."""
+    rock = _rock([512345.678, 5412345.678, 230.5])
+    data = gltf.glb([rock], "rock")
+    mesh = trimesh.load(_io.BytesIO(data), file_type="glb", force="mesh", process=False)
+    size = np.ptp(rock.positions, axis=0).max()
+    assert np.abs(mesh.vertices - rock.positions).max() < 2.0**-23 * size
+    tree = _tree(data)
+    translation = np.array(tree["nodes"][0]["translation"])
+    assert np.abs(translation - rock.positions.mean(0)).max() <= size
+    accessor = tree["accessors"][tree["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    stored = _accessor(data, tree, tree["meshes"][0]["primitives"][0]["attributes"]["POSITION"])
+    assert np.abs(stored).max() <= size
+    np.testing.assert_array_equal(accessor["min"], stored.min(0))
+    np.testing.assert_array_equal(accessor["max"], stored.max(0))
+
+
+def test_a_mesh_about_the_origin_gets_no_translation_and_its_own_positions():
+    rock = _rock([0.01, -0.02, 0.0])
+    data = gltf.glb([rock], "rock")
+    tree = _tree(data)
+    assert "translation" not in tree["nodes"][0]
+    stored = _accessor(data, tree, tree["meshes"][0]["primitives"][0]["attributes"]["POSITION"])
+    np.testing.assert_array_equal(stored, rock.positions.astype(np.float32))
+
+
 def test_large_meshes_use_32_bit_indices():
     n = 70000
     positions = np.random.default_rng(1).random((n, 3))

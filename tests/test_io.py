@@ -1,8 +1,13 @@
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
-from neurender import io
+from neurender import io, unique_keys
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_exr_round_trip_named_channels(tmp_path):
@@ -128,6 +133,21 @@ def test_csv_errors_name_the_file_and_what_it_is(tmp_path):
         io.read_csv(tmp_path / "long.csv")
 
 
+@pytest.mark.parametrize(("separator", "name"), [(";", "semicolons"), ("\t", "tabs")])
+def test_csv_separated_by_semicolons_or_tabs_is_refused_naming_the_file(tmp_path, separator, name):
+    # A spreadsheet in a locale with decimal commas saves "x;y" rows as "1,5;2".
+    path = tmp_path / "scenes.csv"
+    path.write_text(f"scene{separator}x{separator}y\na{separator}1,5{separator}2\n")
+    with pytest.raises(OSError, match=f"CSV file {path}: it is separated by {name}"):
+        io.read_csv(path, ["scene", "x", "y"])
+
+
+def test_csv_with_a_semicolon_inside_a_comma_separated_header_reads(tmp_path):
+    path = tmp_path / "ok.csv"
+    path.write_text('"a;b",c\n1,2\n')
+    assert list(io.read_csv(path).columns) == ["a;b", "c"]
+
+
 def test_copy_file_gives_the_same_bytes_and_names_a_missing_source(tmp_path):
     source = tmp_path / "net.onnx"
     source.write_bytes(bytes(range(256)) * 3)
@@ -137,3 +157,80 @@ def test_copy_file_gives_the_same_bytes_and_names_a_missing_source(tmp_path):
     with pytest.raises(FileNotFoundError, match="missing.onnx"):
         io.copy_file(tmp_path / "missing.onnx", tmp_path / "x.onnx")
     assert not (tmp_path / "x.onnx").exists()
+
+
+def test_read_yaml_refuses_a_section_set_twice_naming_the_file_key_and_lines(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("ndr:\n  width: 32\nseed: 3\nndr:\n  width: 64\n")
+    with pytest.raises(unique_keys.DuplicateKeyError) as raised:
+        io.read_yaml(bad)
+    message = str(raised.value)
+    assert message.startswith(f"{bad}: key 'ndr' is set twice, on lines 1 and 4")
+    assert yaml.safe_load(bad.read_text()) == {"ndr": {"width": 64}, "seed": 3}  # what it hid
+
+
+def test_read_yaml_names_a_nested_key_by_its_dotted_path_and_every_repeat(tmp_path):
+    bad = tmp_path / "nested.yaml"
+    bad.write_text(
+        "prt:\n  user_meshes:\n    mine: {path: a.obj}\n    other: {path: b.obj}\n"
+        "    mine: {path: c.obj}\nlist:\n  - {a: 1}\n  - a: 2\n    b: 3\n    a: 4\n    a: 5\n"
+    )
+    with pytest.raises(unique_keys.DuplicateKeyError) as raised:
+        io.read_yaml(bad)
+    message = str(raised.value)
+    assert str(bad) in message
+    assert "key 'prt.user_meshes.mine' is set twice, on lines 3 and 5" in message
+    assert "key 'list[1].a' is set 3 times, on lines 8, 10 and 11" in message
+
+
+def test_read_yaml_refuses_keys_that_are_equal_once_read_but_keeps_merges(tmp_path):
+    bad = tmp_path / "numbers.yaml"
+    bad.write_text("counts:\n  1: a\n  1.0: b\n  '1': c\n")
+    with pytest.raises(
+        unique_keys.DuplicateKeyError, match=r"'counts\.1' is set twice, on lines 2 and 3"
+    ):
+        io.read_yaml(bad)
+    merged = tmp_path / "merged.yaml"
+    merged.write_text("base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  x: 3\n")
+    assert io.read_yaml(merged) == {"base": {"x": 1, "y": 2}, "other": {"x": 3, "y": 2}}
+
+
+def test_read_yaml_reads_a_valid_file_as_safe_load_does(tmp_path):
+    text = (
+        "seed: 0\ndevice: cpu\nname: '001'\nflag: yes\nnone: null\nwhen: 2024-01-02\n"
+        "ndr: {width: 32, sizes: [1, 2.5, 1e3]}\nmulti: |\n  two\n  lines\n"
+        "anchors: {a: &x [1, 2], b: *x}\n"
+    )
+    (tmp_path / "ok.yaml").write_text(text)
+    assert io.read_yaml(tmp_path / "ok.yaml") == yaml.safe_load(text)
+    (tmp_path / "empty.yaml").write_text("")
+    assert io.read_yaml(tmp_path / "empty.yaml") is None
+    for config in sorted((ROOT / "config").rglob("*.yaml")):
+        assert io.read_yaml(config) == yaml.safe_load(config.read_text()), config
+
+
+def test_read_yaml_reads_json_as_snakemake_does_and_names_its_repeated_keys(tmp_path):
+    ok = tmp_path / "ok.json"
+    ok.write_text('{\n\t"ndr": {"width": 1e2},\n\t"seed": 3\n}\n')  # tabs: JSON, not YAML
+    assert io.read_yaml(ok) == {"ndr": {"width": 100.0}, "seed": 3}
+    bad = tmp_path / "bad.json"
+    bad.write_text('{\n  "ndr": {"width": 32},\n  "ndr": {"width": 64}\n}\n')
+    with pytest.raises(
+        unique_keys.DuplicateKeyError, match="key 'ndr' is set twice, on lines 2 and 3"
+    ):
+        io.read_yaml(bad)
+    tabbed = tmp_path / "tabbed.json"
+    tabbed.write_text('{\n\t"ndr": {"width": 32,\n\t\t"width": 64}\n}\n')
+    with pytest.raises(unique_keys.DuplicateKeyError) as raised:
+        io.read_yaml(tabbed)
+    assert str(raised.value).startswith(
+        f"{tabbed}: key 'ndr.width' is set twice in one JSON object"
+    )
+
+
+def test_read_yaml_names_the_file_of_a_syntax_error_or_a_missing_file(tmp_path):
+    (tmp_path / "broken.yaml").write_text("a: [1\nb: 2\n")
+    with pytest.raises(yaml.YAMLError, match=f'in "{tmp_path / "broken.yaml"}", line 1'):
+        io.read_yaml(tmp_path / "broken.yaml")
+    with pytest.raises(FileNotFoundError, match=f"YAML file {tmp_path / 'none.yaml'} does not"):
+        io.read_yaml(tmp_path / "none.yaml")

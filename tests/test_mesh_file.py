@@ -4,8 +4,11 @@ them out: textures found by one rule or refused by name, indices checked, one v 
 
 import base64
 import json
+import logging
 import os
 import shutil
+import struct
+import sys
 
 import numpy as np
 import pytest
@@ -292,6 +295,20 @@ def test_gltf_images_are_found_by_the_rule_and_refused_when_broken(tmp_path):
         )
 
 
+def test_a_gltf_key_set_twice_is_refused_naming_the_file_and_key(tmp_path):
+    _top_red_texture(tmp_path / "paint.png")
+    path = _quad_gltf(tmp_path, "paint.png")
+    text = path.read_text()
+    path.write_text(text.replace('"images":', '"images": [{"uri": "other.png"}], "images":', 1))
+    expected = f"{path}: key 'images' is set twice in one JSON object"
+    (problem,) = asset_files.missing(path)  # the DAG-time check, which each method prefixes
+    assert problem.startswith(expected)
+    for method, load in LOADERS.items():
+        with pytest.raises(AssetFileError) as err:
+            load(path)
+        assert str(err.value).startswith(expected), method
+
+
 def test_a_corrupt_image_embedded_in_a_glb_is_refused(tmp_path):
     box, _ = gridded_box()
     box.visual.material = trimesh.visual.material.PBRMaterial(
@@ -458,3 +475,304 @@ def test_vtk_face_indices_are_checked(tmp_path):
             match=rf"bad\.vtk: 1 face indices out of range for its {sphere.n_points} vertices",
         ):
             LOADERS[method](tmp_path / "bad.vtk")
+
+
+# Repairs every method shares: vertices no triangle uses, the winding, Draco data.
+
+
+def _signed_volume(vertices, faces) -> float:
+    p = np.asarray(vertices, np.float64)[faces]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
+def _mesh_warnings(caplog) -> list[str]:
+    return [
+        r.getMessage()
+        for r in caplog.records
+        if r.name == "neurender.mesh_file" and r.levelname == "WARNING"
+    ]
+
+
+@pytest.mark.parametrize("suffix", ["ply", "glb"])
+def test_a_vertex_no_triangle_uses_does_not_move_or_shrink_the_object(tmp_path, suffix, caplog):
+    """A sphere and one vertex left at x = 100 where faces were deleted (PLY and GLB keep
+    it): every method places the sphere by its own vertices, with a warning naming it."""
+    ball = trimesh.creation.icosphere(2)
+    path = tmp_path / f"ball.{suffix}"
+    trimesh.Trimesh(np.vstack([ball.vertices, [[100, 0, 0]]]), ball.faces, process=False).export(
+        path
+    )
+    caplog.set_level(logging.INFO)
+    obj = user_objects.load_user_object(path, DEFAULTS)
+    # NDR: the surface fills the unit sphere about the origin.
+    np.testing.assert_allclose((obj.vertices.min(0) + obj.vertices.max(0)) / 2, 0, atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(obj.vertices, axis=1).max(), 1, rtol=1e-6)
+    assert len(obj.vertices) == len(ball.vertices)
+    for vertices in (user_mesh.load(path).vertices, objects.read_mesh(path)[0]):
+        np.testing.assert_allclose(vertices.min(0), ball.vertices.min(0), atol=1e-6)
+        np.testing.assert_allclose(vertices.max(0), ball.vertices.max(0), atol=1e-6)
+    (message,) = set(_mesh_warnings(caplog))
+    assert message.startswith(f"{path}: 1 of its 163 vertices belong to no triangle")
+    assert "[100.0, 0.0, 0.0]" in message and "left out" in message
+
+
+def test_dropping_unused_vertices_keeps_texture_coordinates_with_their_vertices(tmp_path):
+    box, texture = gridded_box()
+    material = trimesh.visual.material.PBRMaterial(
+        baseColorTexture=Image.fromarray(texture), metallicFactor=0.0
+    )
+    uv = np.vstack([box.visual.uv, [[0.9, 0.1]]])
+    trimesh.Trimesh(
+        np.vstack([box.vertices, [[50.0, 3.0, -7.0]]]),
+        box.faces,
+        visual=trimesh.visual.TextureVisuals(uv=uv, material=material),
+        process=False,
+    ).export(tmp_path / "box.glb")
+    part = mesh_file.read(tmp_path / "box.glb").parts[0]
+    np.testing.assert_allclose(part.vertices, box.vertices, atol=1e-6)
+    np.testing.assert_allclose(part.visual.uv, box.visual.uv, atol=1e-6)
+    mesh = user_mesh.load(tmp_path / "box.glb")
+    faces = np.arange(len(mesh.parts[0].faces))
+    for k in range(3):
+        seen = mesh.albedo_at(faces, np.tile(np.eye(3)[k], (len(faces), 1)))
+        want = expected_colours(mesh.parts[0].vertices, texture)[mesh.parts[0].faces[:, k]]
+        np.testing.assert_allclose(seen, want, atol=1e-6)
+
+
+def test_primitives_sharing_one_vertex_list_are_read_without_a_warning(tmp_path, caplog):
+    """A glTF's primitives may index one POSITION accessor: each part then has vertices
+    only the other uses, inside the surface's box; logged at info level only."""
+    box = trimesh.creation.box()
+    box.export(tmp_path / "box.glb")
+    data = (tmp_path / "box.glb").read_bytes()
+    (length,) = struct.unpack_from("<I", data, 12)
+    tree, rest = json.loads(data[20 : 20 + length]), data[20 + length :]
+    indices = tree["meshes"][0]["primitives"][0]["indices"]
+    tree["accessors"][indices]["count"] = 18
+    tree["accessors"].append(dict(tree["accessors"][indices], byteOffset=72))
+    primitive = dict(tree["meshes"][0]["primitives"][0], indices=len(tree["accessors"]) - 1)
+    tree["meshes"][0]["primitives"].append(primitive)
+    text = json.dumps(tree).encode()
+    text += b" " * (-len(text) % 4)
+    head = struct.pack("<4sII", b"glTF", 2, 20 + len(text) + len(rest))
+    (tmp_path / "shared.glb").write_bytes(
+        head + struct.pack("<I4s", len(text), b"JSON") + text + rest
+    )
+    with caplog.at_level(logging.INFO, logger="neurender.mesh_file"):
+        mesh = mesh_file.read(tmp_path / "shared.glb")
+    assert [len(p.faces) for p in mesh.parts] == [6, 6]
+    assert all(len(p.vertices) == len(np.unique(p.faces)) for p in mesh.parts)
+    assert not _mesh_warnings(caplog)
+    assert "belong to no triangle; left out" in caplog.text
+    vertices, faces = mesh.merged()
+    assert _signed_volume(vertices, faces) == pytest.approx(1.0)
+
+
+def test_sequence_frames_drop_the_same_unused_vertices(tmp_path):
+    """DeepPRT compares frames by vertex index: frames with one triangle list drop the same
+    vertices, wherever the unused one moved."""
+    from neurender.prt import animations
+
+    ball = trimesh.creation.icosphere(2)
+    files = []
+    for k, stray in enumerate(([100, 0, 0], [0, -40, 5])):
+        vertices = np.insert(ball.vertices * (1 + 0.1 * k), 7, stray, axis=0)
+        faces = np.where(ball.faces >= 7, ball.faces + 1, ball.faces)
+        files.append(tmp_path / f"frame{k}.ply")
+        trimesh.Trimesh(vertices, faces, process=False).export(files[-1])
+    frames = animations.load_frames(files, "prt.user_sequences.ball.frames")
+    np.testing.assert_array_equal(frames.faces, ball.faces)
+    np.testing.assert_allclose(frames.positions[1], 1.1 * ball.vertices, atol=1e-5)
+
+
+def _inside_out_ball(path, normals: str):
+    """An icosphere with every triangle wound clockwise seen from outside, vertex colours
+    that follow the position, and file normals ``inward`` (as its winding says) or
+    ``outward`` (a mirrored export that transformed its normals right)."""
+    ball = trimesh.creation.icosphere(2)
+    colours = np.column_stack([(ball.vertices + 1) * 127, np.full(len(ball.vertices), 255)])
+    sign = -1.0 if normals == "inward" else 1.0
+    trimesh.Trimesh(
+        ball.vertices,
+        ball.faces[:, ::-1],
+        vertex_colors=colours.astype(np.uint8),
+        vertex_normals=sign * ball.vertices,
+        process=False,
+    ).export(path)
+    return ball
+
+
+@pytest.mark.parametrize("normals", ["inward", "outward"])
+def test_a_closed_surface_wound_inside_out_is_turned_outward_in_every_method(
+    tmp_path, normals, caplog
+):
+    path = tmp_path / "ball.ply"
+    ball = _inside_out_ball(path, normals)
+    caplog.set_level(logging.WARNING)
+    part = mesh_file.read(path).parts[0]
+    assert _signed_volume(part.vertices, part.faces) > 4
+    # Normals face outward whatever the file's say; the colours stay with their vertices.
+    np.testing.assert_allclose(part.vertices, ball.vertices, atol=1e-6)
+    assert (np.einsum("ij,ij->i", part.vertex_normals, part.vertices) > 0.9).all()
+    expected = ((ball.vertices + 1) * 127).astype(np.uint8)
+    np.testing.assert_array_equal(part.visual.vertex_colors[:, :3], expected)
+    obj = user_objects.load_user_object(path, DEFAULTS)
+    assert _signed_volume(obj.vertices, obj.faces) > 0
+    assert (np.einsum("ij,ij->i", obj.normals, obj.vertices) > 0.9).all()
+    mesh = user_mesh.load(path)
+    assert _signed_volume(mesh.vertices, mesh.faces) > 4
+    welded_normals = mesh.normals()[0]
+    assert (np.einsum("ij,ij->i", welded_normals, mesh.parts[0].vertices) > 0.9).all()
+    message = _mesh_warnings(caplog)[0]
+    assert message.startswith(
+        f"{path}: 320 of the 320 triangles of its closed surfaces are wound inside out"
+    )
+    assert "flipped so that the normals point outward" in message
+
+
+def test_a_surface_split_into_parts_is_turned_outward_as_one(tmp_path, caplog):
+    """Two glTF primitives, each half of an inside-out sphere (open alone, closed
+    together): both halves are flipped."""
+    ball = trimesh.creation.icosphere(2)
+    top = ball.triangles_center[:, 2] > 0
+    scene = trimesh.Scene()
+    for k, half in enumerate((top, ~top)):
+        piece = trimesh.Trimesh(ball.vertices, ball.faces[half][:, ::-1], process=False)
+        piece.remove_unreferenced_vertices()
+        scene.add_geometry(piece, geom_name=f"half{k}")
+    scene.export(tmp_path / "halves.glb")
+    caplog.set_level(logging.WARNING)
+    vertices, faces = mesh_file.read(tmp_path / "halves.glb").merged()
+    assert _signed_volume(vertices, faces) > 4
+    obj = user_objects.load_user_object(tmp_path / "halves.glb", DEFAULTS)
+    assert _signed_volume(obj.vertices, obj.faces) > 0
+    mesh = user_mesh.load(tmp_path / "halves.glb")
+    assert _signed_volume(mesh.vertices, mesh.faces) > 4
+    assert "320 of the 320 triangles of its closed surfaces" in _mesh_warnings(caplog)[0]
+
+
+def test_an_open_surface_keeps_the_winding_most_of_its_triangles_have(tmp_path, caplog):
+    ball = trimesh.creation.icosphere(2)
+    ball.update_faces(ball.triangles_center[:, 2] > 0.3)
+    ball.remove_unreferenced_vertices()
+    cap = ball.faces
+    faces = cap.copy()
+    faces[:5] = faces[:5, ::-1]
+    caplog.set_level(logging.WARNING)
+    trimesh.Trimesh(ball.vertices, faces, process=False).export(tmp_path / "cap.ply")
+    part = mesh_file.read(tmp_path / "cap.ply").parts[0]
+    normals = trimesh.triangles.normals(part.vertices[part.faces])[0]
+    assert (np.einsum("ij,ij->i", normals, part.vertices[part.faces].mean(1)) > 0).all()
+    (message,) = _mesh_warnings(caplog)
+    assert message.startswith(
+        f"{tmp_path / 'cap.ply'}: 5 of the {len(cap)} triangles of its open surfaces are wound "
+        "against most of their surface's triangles"
+    )
+    # Wound all one way, an open surface has no wrong side: as stored, without a word.
+    caplog.clear()
+    trimesh.Trimesh(ball.vertices, cap[:, ::-1], process=False).export(tmp_path / "back.ply")
+    part = mesh_file.read(tmp_path / "back.ply").parts[0]
+    np.testing.assert_array_equal(part.faces, cap[:, ::-1])
+    assert not _mesh_warnings(caplog)
+
+
+def test_a_hollow_ball_keeps_its_cavity_facing_inward(tmp_path, caplog):
+    """A closed shell inside another, wound inward on purpose (the cavity's normals face
+    into it), is no inside-out surface."""
+    ball = trimesh.creation.icosphere(2)
+    vertices = np.vstack([ball.vertices, 0.5 * ball.vertices])
+    faces = np.vstack([ball.faces, ball.faces[:, ::-1] + len(ball.vertices)])
+    trimesh.Trimesh(vertices, faces, process=False).export(tmp_path / "hollow.ply")
+    caplog.set_level(logging.WARNING)
+    part = mesh_file.read(tmp_path / "hollow.ply").parts[0]
+    np.testing.assert_array_equal(part.faces, faces)
+    assert not _mesh_warnings(caplog)
+
+
+def test_deepprt_reads_the_winding_as_stored(tmp_path):
+    """DeepPRT orients the rest frame itself, once for every frame (prt.disk)."""
+    path = tmp_path / "ball.ply"
+    ball = _inside_out_ball(path, "inward")
+    np.testing.assert_array_equal(objects.read_mesh(path)[1], ball.faces[:, ::-1])
+
+
+def _draco_glb(path, blob: bytes, count: int, triangles: int):
+    """A GLB with one Draco-compressed primitive (``blob``), as Blender's exporter with
+    "Compression" writes it: accessors without a bufferView."""
+    tree = {
+        "asset": {"version": "2.0", "generator": "Khronos glTF Blender I/O"},
+        "extensionsUsed": ["KHR_draco_mesh_compression"],
+        "extensionsRequired": ["KHR_draco_mesh_compression"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [
+            {
+                "name": "Rock",
+                "primitives": [
+                    {
+                        "attributes": {"POSITION": 0},
+                        "indices": 1,
+                        "extensions": {
+                            "KHR_draco_mesh_compression": {
+                                "bufferView": 0,
+                                "attributes": {"POSITION": 0},
+                            }
+                        },
+                    }
+                ],
+            }
+        ],
+        "accessors": [
+            {"componentType": 5126, "count": count, "type": "VEC3"},
+            {"componentType": 5125, "count": 3 * triangles, "type": "SCALAR"},
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(blob)}],
+        "buffers": [{"byteLength": len(blob)}],
+    }
+    tree["accessors"][0] |= {"min": [-1, -1, -1], "max": [1, 1, 1]}
+    text = json.dumps(tree).encode()
+    text += b" " * (-len(text) % 4)
+    data = blob + bytes(-len(blob) % 4)
+    head = struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + 8 + len(data))
+    path.write_bytes(
+        head
+        + struct.pack("<I4s", len(text), b"JSON")
+        + text
+        + struct.pack("<I4s", len(data), b"BIN\0")
+        + data
+    )
+    return path
+
+
+@pytest.mark.parametrize("method", sorted(LOADERS))
+def test_draco_data_that_cannot_be_decoded_is_named_before_the_bounding_box(
+    tmp_path, monkeypatch, method
+):
+    import DracoPy
+
+    ball = trimesh.creation.icosphere(2)
+    blob = DracoPy.encode(ball.vertices.astype(np.float32), ball.faces.astype(np.uint32))
+    good = _draco_glb(tmp_path / "good.glb", blob, len(ball.vertices), len(ball.faces))
+    vertices, faces = mesh_file.read(good).merged()
+    assert len(faces) == len(ball.faces)
+    assert _signed_volume(vertices, faces) == pytest.approx(
+        _signed_volume(ball.vertices, ball.faces), rel=1e-3
+    )
+    LOADERS[method](good)
+    # A truncated download.
+    cut = _draco_glb(tmp_path / "cut.glb", blob[: len(blob) // 2], len(ball.vertices), 320)
+    with pytest.raises(AssetFileError) as err:
+        LOADERS[method](cut)
+    message = str(err.value)
+    assert message.startswith(f"{cut}: mesh 0 (Rock) primitive 0: its Draco-compressed data")
+    assert f"{len(blob) // 2} bytes) cannot be decoded by DracoPy (FileTypeException:" in message
+    assert "bounding box" not in message
+    # An environment without DracoPy.
+    monkeypatch.setitem(sys.modules, "DracoPy", None)
+    with pytest.raises(AssetFileError) as err:
+        LOADERS[method](good)
+    assert str(err.value).startswith(
+        f"{good}: its meshes are Draco-compressed (glTF extension KHR_draco_mesh_compression), "
+        "which needs the Python package DracoPy: pip install DracoPy"
+    )

@@ -106,7 +106,7 @@ def test_braces_in_a_file_of_a_frames_folder_are_refused(smoke, tmp_path):
     folder = tmp_path / "frames"
     folder.mkdir()
     for name in ("frame_0.obj", "frame_1.obj", "frame_{2}.obj"):
-        (folder / name).write_text(f"v 0 0 0\n# {name}\n")
+        (folder / name).write_text(f"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n# {name}\n")
     cfg = copy.deepcopy(smoke)
     cfg["prt"]["user_sequences"] = {"anim": {"frames": str(folder)}}
     cfg["prt"]["objects"] = ["head", "anim"]
@@ -141,14 +141,76 @@ def test_ndr_maps_are_found_in_any_case_and_hidden_files_are_not_maps(smoke, tmp
     ]
 
 
+def _radiance_hdr(path: Path, height: int = 4) -> Path:
+    """A Radiance RGBE map as HDRI sites ship them: header and flat uncompressed pixels of
+    radiance 1 (mantissa 128, exponent 129)."""
+    header = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (height, 2 * height)
+    path.write_bytes(header + bytes([128, 128, 128, 129]) * (2 * height * height))
+    return path
+
+
+def _ndr_maps_problems(smoke, folder: Path) -> list[str]:
+    return [
+        p
+        for p in rules.problems(_with(smoke, "ndr", "user_probes_dir", str(folder)))
+        if p.startswith("ndr.user_probes_dir")
+    ]
+
+
+def test_maps_in_other_formats_beside_the_exr_maps_are_refused_naming_each(smoke, tmp_path):
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    _map(maps / "studio.exr")
+    strays = [_radiance_hdr(maps / f"{n}_2k.hdr") for n in ("sunset", "forest", "city")]
+    strays.append(maps / "sunset_preview.jpg")
+    strays[-1].write_bytes(b"\xff\xd8\xff")
+    # Notes and hidden files may sit beside the maps.
+    (maps / "README.md").write_text("maps from polyhaven.com\n")
+    (maps / "LICENSE").write_text("CC0\n")
+    (maps / ".DS_Store").write_bytes(b"\x00")
+    (problem,) = _ndr_maps_problems(smoke, maps)
+    assert f"ndr.user_probes_dir = {str(maps)!r}" in problem
+    assert "holds 4 files that are not OpenEXR maps" in problem
+    assert all(p.name in problem for p in strays)
+    assert not any(n in problem.split(";")[0] for n in ("README.md", "LICENSE", "DS_Store"))
+    assert "and no .exr map" not in problem and "Convert HDR maps" in problem
+    for p in strays:
+        p.unlink()
+    assert _ndr_maps_problems(smoke, maps) == []
+
+
+def test_a_folder_of_hdr_maps_only_names_them(smoke, tmp_path):
+    maps = tmp_path / "hdr_only"
+    maps.mkdir()
+    _radiance_hdr(maps / "city_2k.hdr")
+    (problem,) = _ndr_maps_problems(smoke, maps)
+    assert "holds a file that is not an OpenEXR map (city_2k.hdr) and no .exr map" in problem
+
+
+def test_the_conversion_the_message_suggests_makes_a_map_that_loads(smoke, tmp_path):
+    from neurender import lights
+
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    _radiance_hdr(maps / "city_2k.hdr")
+    (problem,) = _ndr_maps_problems(smoke, maps)
+    command = problem.split('python -c "')[1].split('"')[0]
+    subprocess.run([sys.executable, "-c", command], cwd=maps, check=True)
+    (maps / "city_2k.hdr").unlink()
+    assert _ndr_maps_problems(smoke, maps) == []
+    np.testing.assert_allclose(lights.load_probe(maps / "city_2k.exr"), 1.0)
+
+
 def test_a_folder_or_fifo_given_as_a_probe_file_is_named_as_such(smoke, tmp_path):
     os.mkfifo(tmp_path / "sky.exr")
     (tmp_path / "sun.exr").mkdir()
     probes = {"pipe": str(tmp_path / "sky.exr"), "dir": str(tmp_path / "sun.exr")}
     found = rules.problems(_with(smoke, "prt", "user_probes", probes))
     assert found == [
-        f"prt user entry 'pipe': file {tmp_path / 'sky.exr'} is a named pipe (FIFO), not a file",
-        f"prt user entry 'dir': file {tmp_path / 'sun.exr'} is a folder, not a file",
+        f"prt.user_probes.pipe = '{tmp_path / 'sky.exr'}': is a named pipe (FIFO), not a "
+        "file; expected a lat-long EXR light probe (.exr)",
+        f"prt.user_probes.dir = '{tmp_path / 'sun.exr'}': is a folder, not a file; expected "
+        "a lat-long EXR light probe (.exr)",
     ]
     pipe = tmp_path / "sky.exr"
     with pytest.raises(FileNotFoundError, match=rf"EXR file {pipe} is a named pipe"):
@@ -222,3 +284,25 @@ def test_braces_in_a_texture_an_obj_names_are_refused_naming_the_key(smoke, tmp_
         "contains '{v2}', which Snakemake reads as a wildcard in an input file (it has no "
         "escape for literal braces); rename the file or folder without braces"
     ]
+
+
+def test_params_paths_are_relative_inside_the_working_directory_absolute_outside(
+    tmp_path, monkeypatch
+):
+    tmp_path = tmp_path.resolve()  # as os.getcwd() spells it
+    work = tmp_path / "checkout"
+    (work / "config").mkdir(parents=True)
+    monkeypatch.chdir(work)
+    # Inside: relative however given, so that a moved checkout records the same params.
+    assert user_paths.workdir_relative(work) == "."
+    assert user_paths.workdir_relative(work / "config/smoke.yaml") == "config/smoke.yaml"
+    assert user_paths.workdir_relative("./config/../config/smoke.yaml") == "config/smoke.yaml"
+    # Outside (a config in the home folder): the same file wherever the checkout is.
+    outside = tmp_path / "mine.yaml"
+    assert user_paths.workdir_relative(outside) == str(outside)
+    assert user_paths.workdir_relative("../mine.yaml") == str(outside)
+    assert user_paths.workdir_relative(tmp_path) == str(tmp_path)
+    # A sibling whose name starts like the checkout's is outside too.
+    assert user_paths.workdir_relative(tmp_path / "checkout2/a.yaml") == str(
+        tmp_path / "checkout2/a.yaml"
+    )

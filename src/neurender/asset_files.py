@@ -12,17 +12,17 @@ name before any job starts (:mod:`neurender.config`) and again when the asset is
 One rule finds a named file, here and in the loader (:func:`named_file`): relative to the
 folder of the file that names it (as that file was found, not where a symbolic link to it
 points), opened as the operating system opens it (symbolic links followed, ``..`` allowed).
-Standard library only: the Snakefile imports this module.
+Standard library and :mod:`neurender.unique_keys` only: the Snakefile imports this module.
 """
 
 from __future__ import annotations
 
-import json
 import re
 import struct
 from pathlib import Path
 from urllib.parse import unquote
 
+from neurender.unique_keys import DuplicateKeyError, load_json
 from neurender.user_paths import UserPath, file_problem, files_of
 
 #: Mesh files trimesh loads with a material or vertex colours.
@@ -119,16 +119,23 @@ def ply_texture(ply: str | Path) -> Path | None:
 
 
 def gltf_json(path: Path) -> dict:
-    """The JSON of a ``.gltf`` file or of a ``.glb``'s first chunk ({} when unreadable)."""
+    """The JSON of a ``.gltf`` file or of a ``.glb``'s first chunk ({} when unreadable).
+
+    Raises:
+        AssetFileError: naming the file and the key, for a key set twice in one object
+            (trimesh would keep the last without a word).
+    """
     try:
         if path.suffix.lower() == ".gltf":
-            return json.loads(path.read_text())
+            return load_json(path.read_text(), str(path))
         with path.open("rb") as f:
             magic, _, _ = struct.unpack("<4sII", f.read(12))
             length, kind = struct.unpack("<I4s", f.read(8))
             if magic != b"glTF" or kind != b"JSON":
                 return {}
-            return json.loads(f.read(length))
+            return load_json(f.read(length), f"{path} (its JSON chunk)")
+    except DuplicateKeyError as err:
+        raise AssetFileError(str(err)) from err
     except (OSError, ValueError, struct.error):
         return {}  # the loader reports an unreadable file with its own message
 
@@ -178,10 +185,15 @@ def gltf_file_uris(path: str | Path) -> list[str]:
 
 def missing(path: str | Path) -> list[str]:
     """One sentence per file the mesh at ``path`` names that is not a readable file (empty
-    if none), e.g. ``a.obj names a.mtl (/data/a.mtl), which does not exist``."""
+    if none), e.g. ``a.obj names a.mtl (/data/a.mtl), which does not exist``; or the one
+    sentence saying why its list of files cannot be trusted (a glTF key set twice)."""
+    try:
+        named = references(path)
+    except AssetFileError as err:
+        return [str(err)]
     return [
         f"{source} names {target.name} ({target}), which {problem}"
-        for source, target in references(path)
+        for source, target in named
         if (problem := file_problem(target))
     ]
 
@@ -210,7 +222,8 @@ def check(path: str | Path, suffixes: tuple[str, ...], named: bool = True) -> Pa
 
     Raises:
         AssetFileError: naming the file: an unknown suffix, no such file (or a folder, a
-            FIFO ... where the file should be), or the files it names that are missing.
+            FIFO ... where the file should be), a glTF key set twice, or the files it names
+            that are missing.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -224,6 +237,8 @@ def check(path: str | Path, suffixes: tuple[str, ...], named: bool = True) -> Pa
         raise AssetFileError(f"{path}: no such file")
     if problem:
         raise AssetFileError(f"{path}: {problem}; expected a mesh file")
+    if suffix in (".gltf", ".glb"):
+        gltf_json(path)  # refuses a key set twice, of which trimesh would keep the last
     absent = missing(path) if named else []
     if absent:
         raise AssetFileError(f"{path}: " + "; ".join(absent))

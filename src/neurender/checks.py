@@ -1,14 +1,18 @@
 """The sentences config rules are made of, shared by every method's checks
 (``<package>/method.py``'s ``problems``): ranges, perfect squares, powers of two, sizes a
 U-Net can halve, names that must be built in or given by the user, a value that must be
-one of another key's. Each yields one sentence per broken rule, naming the key, its value
-and what was expected.
+one of another key's, a file the user names. Each yields one sentence per broken rule,
+naming the key, its value and what was expected.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping
+from pathlib import Path
+
+from neurender import asset_files
+from neurender.user_paths import file_problem, made_by_the_workflow
 
 
 def ordered(config: Mapping, section: str, key: str) -> Iterator[str]:
@@ -54,3 +58,22 @@ def member(value, options: list, name: str, options_name: str) -> Iterator[str]:
     """``value`` (config key ``name``) is one of ``options`` (config key ``options_name``)."""
     if value not in options:
         yield f"{name} = {value!r}: expected one of {options_name} {list(options)}"
+
+
+def user_file(
+    key: str, path: str, suffixes: tuple[str, ...], what: str, named: bool = False
+) -> Iterator[str]:
+    """The file ``path`` the user gives at config key ``key`` (dotted, e.g.
+    ``prt.user_meshes.mine``) is ``what`` (e.g. ``a mesh file``): a regular file (not a
+    folder, a FIFO ...) with one of ``suffixes`` (lowercase, with the dot; any case
+    matches) and, with ``named``, every material file and texture it names is one
+    (:func:`neurender.asset_files.missing`). A path the workflow makes is checked for its
+    suffix only (the job that makes it has not run)."""
+    expected = f"expected {what} ({', '.join(suffixes)})"
+    problem = None if made_by_the_workflow(path) else file_problem(path)
+    if problem:
+        yield f"{key} = {path!r}: {problem}; {expected}"
+    elif Path(path).suffix.lower() not in suffixes:
+        yield f"{key} = {path!r}: {expected}"
+    elif named and not made_by_the_workflow(path):
+        yield from (f"{key} = {path!r}: {sentence}" for sentence in asset_files.missing(path))

@@ -1,7 +1,9 @@
 """Config rules the JSON schema cannot state: ranges between keys, shapes a network needs,
 files that must exist. :func:`check` runs in ``workflow/rules/common.smk`` right after the
 schema has filled the defaults, so a dry run refuses a bad config before any job starts,
-naming the keys and values and what was expected. Each method states its own rules (its
+naming the keys and values and what was expected. :func:`check_files` runs first of all:
+Snakemake reads a ``--configfile`` keeping the last of two equal keys, so it rereads each
+file refusing a key set twice. Each method states its own rules (its
 record's ``problems``, :mod:`neurender.methods`); this module asks every registered one,
 and checks every user path the records list (``user_paths``) for braces.
 :func:`check_renamed` runs before the schema, so that a key an older release named
@@ -16,9 +18,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from neurender import asset_files, methods
+from neurender import asset_files, io, methods, unique_keys
 from neurender.user_paths import made_by_the_workflow, wildcard_problem
 
 #: Top-level config keys renamed since they were introduced: old key -> (new key, the
@@ -62,6 +62,20 @@ def check(config: Mapping[str, Any]) -> None:
         raise ConfigError("config: " + "; ".join(found))
 
 
+def check_files(configfiles: Iterable[str | Path]) -> None:
+    """Raise :class:`ConfigError` naming, in each of ``configfiles`` (YAML or JSON, as
+    Snakemake's ``--configfile``), every key set twice in one mapping, with its dotted
+    path and lines (:func:`neurender.io.read_yaml`); nothing if there is none."""
+    found = []
+    for path in configfiles:
+        try:
+            io.read_yaml(path)
+        except unique_keys.DuplicateKeyError as err:
+            found.append(str(err))
+    if found:
+        raise ConfigError("; ".join(found))
+
+
 def check_renamed(config: Mapping[str, Any], configfiles: Iterable[str | Path] = ()) -> None:
     """Raise :class:`ConfigError` for each top-level key of ``config`` that
     :data:`RENAMED` lists, naming its new key and those of ``configfiles`` (YAML, as
@@ -82,7 +96,7 @@ def check_renamed(config: Mapping[str, Any], configfiles: Iterable[str | Path] =
 
 def _top_level_keys(path: str | Path) -> set[str]:
     """The top-level keys of a YAML config file (none for a file that is not a mapping)."""
-    data = yaml.safe_load(Path(path).read_text())
+    data = io.read_yaml(path)
     return set(data) if isinstance(data, dict) else set()
 
 

@@ -17,6 +17,8 @@ from typing import Any
 
 import yaml
 
+from neurender import io
+
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
 DEFAULT_CONFIG = ROOT / "config/config.yaml"
@@ -122,8 +124,8 @@ def rows(
 
 def render(schema_path: Path = SCHEMA, config_path: Path = DEFAULT_CONFIG) -> str:
     """The Markdown text of ``config/README.md``."""
-    schema = yaml.safe_load(Path(schema_path).read_text())
-    configured = yaml.safe_load(Path(config_path).read_text()) or {}
+    schema = io.read_yaml(schema_path)
+    configured = io.read_yaml(config_path) or {}
     lines = [INTRO]
     top = {k: v for k, v in schema["properties"].items() if v.get("type") != "object"}
     sections = {k: v for k, v in schema["properties"].items() if v.get("type") == "object"}

@@ -1,7 +1,13 @@
 """glTF 2.0 binary (GLB) files of triangle meshes, written without a dependency.
 
 One node and one mesh per file; each :class:`Primitive` is one primitive with its own
-material. Materials are the pipeline's Lambertian reflector in glTF's terms:
+material. The node's ``translation`` is :func:`origin` of all positions, a round point
+near their bounding-box centre (float64 numbers in the JSON), and ``POSITION`` holds the
+float32 offsets from it: a mesh far from the origin (a georeferenced scan at 5e6 m) keeps
+float32's relative precision of its own size, where absolute float32 coordinates would
+round to 0.5 m steps. A mesh about the origin gets no translation (offsets = positions).
+
+Materials are the pipeline's Lambertian reflector in glTF's terms:
 ``metallicFactor`` 0, ``roughnessFactor`` 1 and ``KHR_materials_specular`` with
 ``specularFactor`` 0 (a viewer without the extension shows a rough dielectric with a
 faint sheen). Conventions (glTF's): right-handed, y up; ``TEXCOORD_0`` with ``v`` pointing
@@ -60,6 +66,19 @@ def png_bytes(values: np.ndarray) -> bytes:
     buffer = _io.BytesIO()
     Image.fromarray(io.to_uint8(values)).save(buffer, format="PNG")
     return buffer.getvalue()
+
+
+def origin(positions: np.ndarray) -> np.ndarray:
+    """The node translation ``(3,)`` for ``positions (N, 3)``: their bounding-box centre
+    rounded to a multiple of ``2^floor(log2(longest side))``, so every offset from it is
+    within one longest side (float32 keeps it to about 6e-8 of the side) and a mesh whose
+    centre is within half that step of the origin gets exactly 0."""
+    lo, hi = positions.min(0), positions.max(0)
+    side = float((hi - lo).max())
+    if not side > 0:  # one point (or none): any origin is exact
+        return np.zeros(3)
+    step = 2.0 ** np.floor(np.log2(side))
+    return np.round((lo + hi) / 2 / step) * step + 0.0  # + 0.0: no -0.0 in the JSON
 
 
 class _Buffer:
@@ -131,11 +150,11 @@ def _check(p: Primitive, where: str) -> None:
         raise ValueError(f"{where}: a normal texture needs tangents")
 
 
-def _primitive(p: Primitive, k: int, buffer: _Buffer) -> dict:
-    """The glTF primitive of ``p`` (material ``k``), its arrays written to ``buffer``."""
-    attributes = {
-        "POSITION": buffer.accessor(p.positions, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True)
-    }
+def _primitive(p: Primitive, k: int, buffer: _Buffer, centre: np.ndarray) -> dict:
+    """The glTF primitive of ``p`` (material ``k``) with positions relative to the node's
+    translation ``centre``, its arrays written to ``buffer``."""
+    offsets = np.asarray(p.positions, np.float64) - centre
+    attributes = {"POSITION": buffer.accessor(offsets, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True)}
     for semantic, key, kind in (
         ("NORMAL", "normals", "VEC3"),
         ("TANGENT", "tangents", "VEC4"),
@@ -175,13 +194,19 @@ def _material(p: Primitive, name: str, buffer: _Buffer) -> dict:
 
 
 def glb(primitives: list[Primitive], name: str, generator: str = "neurender") -> bytes:
-    """The GLB bytes of one mesh made of ``primitives``; indices are 16-bit where a
-    primitive has fewer than 65536 vertices, else 32-bit."""
+    """The GLB bytes of one mesh made of ``primitives``, placed by its node's translation
+    (module docstring); indices are 16-bit where a primitive has fewer than 65536
+    vertices, else 32-bit."""
     buffer = _Buffer()
     gl_primitives, materials = [], []
     for k, p in enumerate(primitives):
         _check(p, f"glTF primitive {k} of {name}")
-        gl_primitives.append(_primitive(p, k, buffer))
+    centre = origin(np.concatenate([np.asarray(p.positions, np.float64) for p in primitives]))
+    node: dict = {"mesh": 0, "name": name}
+    if centre.any():
+        node["translation"] = centre.tolist()
+    for k, p in enumerate(primitives):
+        gl_primitives.append(_primitive(p, k, buffer, centre))
         materials.append(_material(p, f"{name}_{k}" if len(primitives) > 1 else name, buffer))
     binary = buffer.binary()
     tree: dict = {
@@ -189,7 +214,7 @@ def glb(primitives: list[Primitive], name: str, generator: str = "neurender") ->
         "extensionsUsed": ["KHR_materials_specular"],
         "scene": 0,
         "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": name}],
+        "nodes": [node],
         "meshes": [{"name": name, "primitives": gl_primitives}],
         "materials": materials,
         "accessors": buffer.accessors,

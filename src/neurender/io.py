@@ -1,4 +1,5 @@
-"""File formats: OpenEXR (named float channels), PNG (8/16-bit), tidy CSV, NPZ.
+"""File formats: OpenEXR (named float channels), PNG (8/16-bit), tidy CSV, NPZ, and the
+YAML (or JSON) of config files.
 
 Every writer is atomic: it writes a temporary file next to the target and renames it,
 so a crash never leaves a half-written output that Snakemake or a reader would trust.
@@ -13,19 +14,22 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import os
 import shutil
 import tempfile
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import OpenEXR
 import pandas as pd
 import png
+import yaml
 
-from neurender import user_paths
+from neurender import unique_keys, user_paths
 
 #: Columns read as text exactly as written, whatever they hold (``NA``, ``None``, ``001``
 #: and a blank are labels, not missing values or numbers): the tidy tables' and targets'
@@ -196,8 +200,14 @@ def read_csv(
     The columns named in ``text`` are strings exactly as written (a blank cell is ``""``);
     the others are parsed as pandas does (numbers, booleans, blanks and ``NA``-like cells
     as NaN), so a tidy table written by :func:`write_csv` reads back equal.
+
+    Raises:
+        OSError: naming the file: missing or not a regular file, not UTF-8, a row longer
+            than the header, or separated by semicolons or tabs rather than commas.
+        ValueError: naming the file, the missing ``required`` columns and those it has.
     """
     p = _require_file(path, "CSV")
+    _check_separator(p)
     try:
         # index_col=False: a row longer than the header is an error, not an index column
         # that shifts every value one column to the right.
@@ -218,6 +228,55 @@ def read_csv(
     if missing:
         raise ValueError(f"CSV file {p} lacks columns {missing}; it has {list(frame.columns)}")
     return frame
+
+
+def _check_separator(p: Path) -> None:
+    """Refuse a CSV whose header has no comma but another separator: a spreadsheet set to
+    a locale with decimal commas saves ``;``-separated files, which would otherwise read as
+    one column named by the whole header, or fail on the rows' decimal commas."""
+    with open(p, encoding="utf-8", errors="replace") as f:
+        header = f.readline().strip()
+    if "," in header:
+        return
+    for separator, name in ((";", "semicolons"), ("\t", "tabs")):
+        if separator in header:
+            raise OSError(
+                f"cannot parse CSV file {p}: it is separated by {name}, not commas "
+                f"(header {header!r}); "
+                "expected comma-separated columns with '.' as the decimal point (in a "
+                "spreadsheet: save as 'CSV (comma delimited)' with an English locale)"
+            )
+
+
+def read_yaml(path: PathLike) -> Any:
+    """The data of a YAML config or other user YAML file, read as Snakemake reads a
+    ``--configfile``: as JSON when the text is JSON, else as ``yaml.safe_load`` reads it,
+    except that a mapping setting one key twice is refused (:mod:`neurender.unique_keys`).
+
+    Raises:
+        FileNotFoundError: naming the file when it is missing (or not a regular file).
+        neurender.unique_keys.DuplicateKeyError: naming the file, each repeated key's dotted
+            path (``ndr.width``) and (YAML) the lines that set it.
+        yaml.YAMLError: naming the file, line and column of a syntax error.
+        OSError: naming the file when it is not UTF-8 text.
+    """
+    p = _require_file(path, "YAML")
+    try:
+        text = p.read_text(encoding="utf-8")  # Snakemake's encoding for config files
+    except UnicodeDecodeError as err:
+        raise OSError(f"cannot read YAML file {p}: not UTF-8 text ({err})") from err
+    try:
+        return unique_keys.load_json(text, str(p))
+    except json.JSONDecodeError:
+        return unique_keys.load_yaml(text, str(p))
+    except unique_keys.DuplicateKeyError as err:
+        try:  # JSON is YAML (but for tabs), whose reader also knows the lines
+            unique_keys.load_yaml(text, str(p))
+        except unique_keys.DuplicateKeyError as located:
+            raise located from None
+        except yaml.YAMLError:
+            pass
+        raise err
 
 
 def save_npz(path: PathLike, **arrays: np.ndarray) -> None:

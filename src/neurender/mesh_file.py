@@ -25,9 +25,35 @@ full; one that cannot be (missing, not an image, truncated, over Pillow's pixel 
 it, the texture and the reason. A part whose material has a texture must have texture
 coordinates.
 
+A glTF's extensions and the texture coordinates its textures sample (``texCoord``,
+``KHR_texture_transform``) are settled by :mod:`neurender.gltf_file` before trimesh reads
+it: a required extension the reader does not honour is refused, a transform is applied
+once, textures of one material at different coordinates are refused.
+
+A glTF whose meshes are Draco-compressed (``KHR_draco_mesh_compression``) is decoded by
+DracoPy (in trimesh); it is refused, naming the file and the mesh and primitive, when
+DracoPy is missing or cannot decode the data (trimesh would log it and read zeros).
+
 Checked once, here: faces index existing vertices (none negative, none past the last; an
-OBJ's relative, negative indices are refused rather than read wrongly), vertex positions
-are finite, the used vertices' bounding box spans at least two axes.
+OBJ's relative, negative indices are refused rather than read wrongly), the vertices
+triangles use are finite, their bounding box spans at least two axes.
+
+Repaired once, here, with a logged warning naming the file:
+
+* vertices no triangle uses (left behind where faces were deleted) are dropped, so every
+  method places and sizes the object by its surface (a warning where they lie outside the
+  surface's bounding box: they would have moved it; a glTF's primitives that share one
+  vertex list leave each part unused vertices inside it, logged at info level). Vertex
+  indices change only where vertices are dropped, the same way in every file with the
+  same triangles (the frames of a DeepPRT sequence).
+* the winding (:func:`neurender.geometry.winding_flips`; not where the caller orients
+  the surface itself, ``orient=False``: DeepPRT's geometry image): a closed surface wound
+  inside out (negative signed volume, every normal inward, as a mirrored export or a CAD
+  tool can write it) is flipped, an open surface's triangles wound against most of their
+  neighbours are flipped to match them. Flipping reverses a triangle's corners (texture
+  coordinates and colours stay with their vertices). The parts carry no vertex normals
+  from the file (trimesh's scene flattening drops them): the normals the methods shade
+  with are computed from the triangles, so they follow the repaired winding.
 
 Texture conventions: an image array ``(H, W, C)`` has row 0 at the image's top. trimesh
 gives texture coordinates with ``v`` up, OBJ's convention, for every format (it flips
@@ -40,6 +66,7 @@ from __future__ import annotations
 
 import base64
 import dataclasses
+import logging
 import re
 import struct
 import warnings
@@ -51,8 +78,11 @@ import numpy as np
 import trimesh
 from PIL import Image
 
-from neurender import asset_files, user_paths
+from neurender import asset_files, gltf_file, user_paths
 from neurender.asset_files import AssetFileError
+from neurender.geometry import winding_flips
+
+log = logging.getLogger(__name__)
 
 #: A bounding box counts as degenerate when its second-largest extent is below this
 #: fraction of its largest (a point or a line segment: no surface to render).
@@ -104,6 +134,7 @@ def read(
     path: str | Path,
     suffixes: tuple[str, ...] = asset_files.TRIMESH_SUFFIXES + asset_files.VTK_SUFFIXES,
     materials: bool = True,
+    orient: bool = True,
 ) -> MeshFile:
     """Read a user's mesh file (module docstring).
 
@@ -111,12 +142,16 @@ def read(
         suffixes: the formats the caller reads.
         materials: read the materials and textures (and require the files the mesh names);
             ``False`` reads the geometry only (the parts' visuals are then undefined).
+        orient: repair the winding (module docstring); ``False`` keeps the file's, for a
+            caller that orients the surface itself once for several files (DeepPRT's
+            sequences: one orientation for every frame).
 
     Raises:
         AssetFileError: naming the file and what was found: an unknown suffix, no such file
             (or a folder, a FIFO ...), a missing or unreadable file it names, an unreadable
-            file, no faces, face indices out of range, non-finite vertices, a degenerate
-            bounding box, a texture without texture coordinates.
+            file, Draco data that cannot be decoded, no faces, face indices out of range,
+            non-finite vertices, a degenerate bounding box, a texture without texture
+            coordinates.
     """
     path = asset_files.check(path, suffixes, named=materials)
     if path.suffix.lower() in asset_files.VTK_SUFFIXES:
@@ -124,6 +159,9 @@ def read(
     else:
         parts = _trimesh_parts(path, materials)
     _check_surface(path, parts)
+    _drop_unused(path, parts)
+    if orient:
+        _orient(path, parts)
     return MeshFile(path, parts)
 
 
@@ -227,7 +265,7 @@ class _Files(trimesh.resolvers.Resolver):
 def _trimesh_parts(path: Path, materials: bool) -> list[trimesh.Trimesh]:
     """The parts of a file trimesh reads, indices checked, textures read and checked."""
     suffix = path.suffix.lower()
-    kwargs, textures = {}, {}
+    kwargs, textures, source = {}, {}, path
     if suffix == ".obj":
         _check_obj_indices(path)
         if materials:
@@ -239,14 +277,20 @@ def _trimesh_parts(path: Path, materials: bool) -> list[trimesh.Trimesh]:
             kwargs["resolver"] = _Files(path, text)
         else:
             kwargs["skip_materials"] = True
-    elif materials and suffix in (".gltf", ".glb"):
-        _check_gltf_images(path)
+    elif suffix in (".gltf", ".glb"):
+        _check_draco(path)
+        # Extensions first: an image only a required extension decodes is named as such.
+        rewritten = gltf_file.prepare(path, materials)
+        if materials:
+            _check_gltf_images(path)
+        if rewritten is not None:
+            source, kwargs["file_type"] = BytesIO(rewritten), suffix[1:]
     elif materials and suffix == ".ply" and asset_files.ply_texture(path):
         texture = asset_files.ply_texture(path)
         textures[None] = {"map_kd": load_image(texture, path, _names(path, texture))}
     kwargs.setdefault("resolver", _Files(path))
     try:
-        scene = trimesh.load(path, force="scene", process=False, **kwargs)
+        scene = trimesh.load(source, force="scene", process=False, **kwargs)
         for geometry in scene.geometry.values():
             if isinstance(geometry, trimesh.Trimesh):
                 _check_arrays(path, geometry.vertices, geometry.faces)
@@ -313,24 +357,6 @@ def _file_material(path: Path, mesh: trimesh.Trimesh, textures: dict) -> None:
             )
 
 
-def _gltf_buffer(path: Path, tree: dict, index: int) -> bytes:
-    """The bytes of buffer ``index`` of a glTF: a GLB's binary chunk, a ``data:`` URI or
-    a file found by :func:`asset_files.named_file`."""
-    uri = tree["buffers"][index].get("uri")
-    if uri is None:  # the GLB's BIN chunk
-        data = path.read_bytes()
-        offset = 12
-        while offset + 8 <= len(data):
-            length, kind = struct.unpack_from("<I4s", data, offset)
-            if kind == b"BIN\x00":
-                return data[offset + 8 : offset + 8 + length]
-            offset += 8 + length
-        raise ValueError("no binary chunk")
-    if uri.startswith("data:"):
-        return base64.b64decode(uri.split("base64,", 1)[1])
-    return asset_files.named_file(path, unquote(uri)).read_bytes()
-
-
 def _check_gltf_images(path: Path) -> None:
     """Decode every image a glTF names (external file, ``data:`` URI or buffer view)."""
     tree = asset_files.gltf_json(path)
@@ -347,13 +373,64 @@ def _check_gltf_images(path: Path) -> None:
             else:
                 view = tree["bufferViews"][image["bufferView"]]
                 start = view.get("byteOffset", 0)
-                blob = _gltf_buffer(path, tree, view["buffer"])[start : start + view["byteLength"]]
+                blob = gltf_file.buffer_bytes(path, tree, view["buffer"])
+                blob = blob[start : start + view["byteLength"]]
         except (KeyError, IndexError, TypeError, ValueError, OSError, struct.error) as err:
             raise AssetFileError(
                 f"{path}: image {k} is embedded, but its bytes cannot be found "
                 f"({type(err).__name__}: {err})"
             ) from err
         load_image(blob, path, f"its image {k} (embedded)")
+
+
+def _check_draco(path: Path) -> None:
+    """Refuse a glTF with Draco-compressed primitives when DracoPy is missing or cannot
+    decode one (trimesh logs either and reads the primitive as zeros)."""
+    tree = asset_files.gltf_json(path)
+    try:
+        compressed = [
+            (m, k, mesh.get("name"), primitive["extensions"][gltf_file.DRACO])
+            for m, mesh in enumerate(tree.get("meshes", []))
+            for k, primitive in enumerate(mesh.get("primitives", []))
+            if gltf_file.DRACO in (primitive.get("extensions") or {})
+        ]
+    except (AttributeError, TypeError):
+        return  # a malformed file: trimesh's error names it
+    if not compressed:
+        return
+    try:
+        import DracoPy
+    except ImportError as err:
+        raise AssetFileError(
+            f"{path}: its meshes are Draco-compressed (glTF extension {gltf_file.DRACO}), "
+            f"which needs the Python package DracoPy: pip install DracoPy "
+            f"({type(err).__name__}: {err})"
+        ) from err
+    for m, k, name, draco in compressed:
+        where = f"mesh {m}{f' ({name})' if isinstance(name, str) else ''} primitive {k}"
+        try:
+            index = draco["bufferView"]
+            view = tree["bufferViews"][index]
+            start = view.get("byteOffset", 0)
+            blob = gltf_file.buffer_bytes(path, tree, view["buffer"])
+            blob = blob[start : start + view["byteLength"]]
+            if len(blob) != view["byteLength"]:
+                raise ValueError(f"the buffer ends {len(blob)} bytes into the view")
+        except (KeyError, IndexError, TypeError, ValueError, OSError, struct.error) as err:
+            raise AssetFileError(
+                f"{path}: {where}: its Draco-compressed data ({gltf_file.DRACO}) cannot be "
+                f"found ({type(err).__name__}: {err})"
+            ) from err
+        try:
+            DracoPy.decode(blob)
+        except Exception as err:  # DracoPy raises its own kinds for data it cannot read
+            raise AssetFileError(
+                f"{path}: {where}: its Draco-compressed data ({gltf_file.DRACO}, bufferView "
+                f"{index}, {len(blob)} bytes) cannot be decoded by DracoPy "
+                f"({type(err).__name__}: {err}); the file may be truncated (copy or download "
+                f"it again) or written by a Draco encoder DracoPy cannot read (export it "
+                f"again, or without compression)"
+            ) from err
 
 
 def _check_obj_indices(path: Path) -> None:
@@ -431,10 +508,11 @@ def _vtk_part(path: Path) -> trimesh.Trimesh:
 
 
 def _check_surface(path: Path, parts: list[trimesh.Trimesh]) -> None:
-    """Refuse non-finite vertices and a degenerate bounding box of the used vertices."""
+    """Refuse non-finite vertices that triangles use and a degenerate bounding box of the
+    used vertices."""
     for part in parts:
         vertices = np.asarray(part.vertices, np.float64)
-        bad = ~np.isfinite(vertices).all(1)
+        bad = ~np.isfinite(vertices).all(1) & _used(part)
         if bad.any():
             first = int(np.flatnonzero(bad)[0])
             raise AssetFileError(
@@ -448,3 +526,89 @@ def _check_surface(path: Path, parts: list[trimesh.Trimesh]) -> None:
             f"{path}: degenerate bounding box, extents {[float(e) for e in extents]} "
             f"(sorted); expected a surface that spans at least two axes"
         )
+
+
+def _used(part: trimesh.Trimesh) -> np.ndarray:
+    """``(n,)`` bool: the part's vertices that a triangle uses."""
+    used = np.zeros(len(part.vertices), bool)
+    used[np.asarray(part.faces).ravel()] = True
+    return used
+
+
+def _drop_unused(path: Path, parts: list[trimesh.Trimesh]) -> None:
+    """Drop the vertices no triangle uses from every part (trimesh keeps the visuals'
+    texture coordinates and colours with their vertices); log how many, a warning where
+    some lie outside the used vertices' bounding box (module docstring)."""
+    masks = [_used(p) for p in parts]
+    unused = np.concatenate([np.asarray(p.vertices)[~m] for p, m in zip(parts, masks, strict=True)])
+    if not len(unused):
+        return
+    used = np.concatenate([np.asarray(p.vertices)[m] for p, m in zip(parts, masks, strict=True)])
+    low, high = used.min(0), used.max(0)
+    margin = FLAT_TOLERANCE * float(np.max(high - low))
+    # Non-finite vertices are outside any box (comparisons with NaN are false).
+    outside = ~((unused >= low - margin) & (unused <= high + margin)).all(1)
+    total = sum(len(p.vertices) for p in parts)
+    for part in parts:
+        part.remove_unreferenced_vertices()
+    if outside.any():
+        log.warning(
+            "%s: %d of its %d vertices belong to no triangle, %d of them outside the "
+            "surface's bounding box (e.g. at %s; the surface spans %s to %s); they are "
+            "left out, so the object is placed and sized by its triangles (delete loose "
+            "vertices in your modelling tool to silence this)",
+            path,
+            len(unused),
+            total,
+            int(outside.sum()),
+            unused[outside][0].tolist(),
+            low.tolist(),
+            high.tolist(),
+        )
+    else:
+        log.info(
+            "%s: %d of its %d vertices belong to no triangle; left out", path, len(unused), total
+        )
+
+
+def _orient(path: Path, parts: list[trimesh.Trimesh]) -> None:
+    """Flip the triangles :func:`neurender.geometry.winding_flips` finds across all parts
+    (a surface may span several); log a warning naming the file and the counts."""
+    sizes = [len(p.faces) for p in parts]
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    vertices = np.concatenate([np.asarray(p.vertices, np.float64) for p in parts])
+    faces = np.concatenate(
+        [np.asarray(p.faces, np.int64) + o for p, o in zip(parts, offsets, strict=True)]
+    )
+    flip, closed = winding_flips(vertices, faces)
+    if not flip.any():
+        return
+    for part, part_flip in zip(parts, np.split(flip, np.cumsum(sizes)[:-1]), strict=True):
+        if not part_flip.any():
+            continue
+        old = np.asarray(part.faces)
+        part.faces = np.where(part_flip[:, None], old[:, ::-1], old)
+    for kind, mask, what in (
+        (
+            "closed",
+            closed,
+            "wound inside out (clockwise seen from outside: their normals point inward, as a "
+            "mirrored export or a CAD tool can write them); they are flipped so that the "
+            "normals point outward",
+        ),
+        (
+            "open",
+            ~closed,
+            "wound against most of their surface's triangles; they are flipped to match them "
+            "(an open surface has no inside: its front is the side most triangles face)",
+        ),
+    ):
+        if flip[mask].any():
+            log.warning(
+                "%s: %d of the %d triangles of its %s surfaces are %s",
+                path,
+                int(flip[mask].sum()),
+                int(mask.sum()),
+                kind,
+                what,
+            )

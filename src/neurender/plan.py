@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from neurender import config, costs, io
 
@@ -53,9 +52,9 @@ def load_config(configfiles: Sequence[str]) -> dict:
     in order, with the schema's defaults filled in."""
     from snakemake.utils import update_config, validate
 
-    cfg = yaml.safe_load((ROOT / "config/config.yaml").read_text())
+    cfg = io.read_yaml(ROOT / "config/config.yaml")
     for path in configfiles:
-        update_config(cfg, yaml.safe_load(Path(path).read_text()))
+        update_config(cfg, io.read_yaml(path))
     config.check_renamed(cfg, [ROOT / "config/config.yaml", *configfiles])
     config.check_names_are_text(cfg)
     validate(cfg, str(ROOT / "workflow/schemas/config.schema.yaml"))

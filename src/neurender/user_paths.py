@@ -10,6 +10,9 @@ built. Conventions:
   ``._frame_001.obj`` resource forks, editors' ``.swp``); a glob for what it matches
   (hidden names only when the pattern names them, as :func:`glob.glob` does).
 - Suffixes compare case-insensitively (``B.EXR`` is an EXR map).
+- A folder of inputs may hold notes beside them (``README``, ``LICENSE.txt``,
+  :func:`is_note`); a reader of such a folder refuses any other file it does not read
+  rather than leave it out unsaid.
 """
 
 from __future__ import annotations
@@ -46,6 +49,19 @@ def as_input(path: str) -> str:
     return normalise(path) if made_by_the_workflow(path) else path
 
 
+def workdir_relative(path: str | os.PathLike) -> str:
+    """``path`` relative to the working directory when it lies inside it (``.``,
+    ``config/smoke.yaml``), else absolute (a config file in the home folder). Job params
+    hold paths in this form: Snakemake records params per output (``.snakemake/metadata``)
+    and makes ``--configfile`` paths absolute, so an absolute path there would rerun the
+    jobs of a checkout moved or copied elsewhere with its results."""
+    absolute = os.path.abspath(path)
+    relative = os.path.relpath(absolute)
+    if relative == os.pardir or relative.startswith(os.pardir + os.sep):
+        return absolute
+    return relative
+
+
 def file_problem(path: str | os.PathLike) -> str | None:
     """What ``path`` is when it is no regular file (symbolic links followed), as words
     that follow its name: ``does not exist``, ``is a folder, not a file``, ``is a named
@@ -76,6 +92,19 @@ def file_problem(path: str | os.PathLike) -> str | None:
 def is_hidden(path: Path) -> bool:
     """A dot file (``.DS_Store``, ``._frame.obj``): left out of folders."""
     return path.name.startswith(".")
+
+
+#: Files meant for people that a folder of inputs may hold beside them (an HDRI site's
+#: licence, the user's notes): by suffix, or by name whatever the suffix.
+NOTE_SUFFIXES = (".txt", ".md", ".rst", ".pdf", ".html", ".htm")
+NOTE_STEMS = ("readme", "license", "licence", "copying", "credits", "notice", "authors")
+
+
+def is_note(path: Path) -> bool:
+    """A note or licence (:data:`NOTE_SUFFIXES`, :data:`NOTE_STEMS`; any case):
+    ``README``, ``LICENSE.txt``, ``sources.md``."""
+    name = path.name.lower()
+    return path.suffix.lower() in NOTE_SUFFIXES or name.split(".")[0] in NOTE_STEMS
 
 
 def files_of(path: str) -> list[Path]:

@@ -183,3 +183,17 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
     assert refined["iou_depth"] == pytest.approx(expected["iou_depth"])
     assert refined["ms_per_frame"] > 0  # the no-learning renderer timed beside the networks
     assert open(outputs["figure"], "rb").read(4) == b"\x89PNG"
+
+
+def test_an_empty_frame_is_left_out_of_a_settings_quality_means():
+    scene = _scenes(1)[0]
+    empty = scenes.sample_scene(1, (1e-9, 1e-9), torch.Generator().manual_seed(1))
+    examples = [
+        (s, raymarch.render_gbuffers(s, 16).stack()) for s in (scene, empty.to(torch.float32))
+    ]
+    coarse = eq.March(min_step=1.0)
+    both = eq.score_settings(examples, 16, [coarse]).iloc[0]
+    alone = eq.score_settings(examples[:1], 16, [coarse]).iloc[0]
+    assert both["iou_depth"] == alone["iou_depth"] < 1.0  # not raised by a perfect empty one
+    only_empty = eq.score_settings(examples[1:], 16, [coarse]).iloc[0]
+    assert math.isnan(only_empty["iou_depth"])

@@ -1,8 +1,10 @@
+import math
+
 import pandas as pd
 import pytest
 import torch
 
-from neurender.metaballs import evaluate, inputs, raymarch
+from neurender.metaballs import EMPTY_FRAME, EMPTY_FRAMES, evaluate, gbuffers, inputs, raymarch
 
 
 def test_blended_balls_differ_from_isolated_spheres(make_scene):
@@ -39,7 +41,7 @@ def test_iou():
     a = torch.tensor([True, True, False, False])
     b = torch.tensor([True, False, True, False])
     assert evaluate.iou(a, b) == pytest.approx(1 / 3)
-    assert evaluate.iou(a & False, b & False) == 1.0  # both empty
+    assert math.isnan(evaluate.iou(a & False, b & False))  # both empty: no overlap to score
 
 
 def test_binned_means():
@@ -70,3 +72,45 @@ def test_accuracy_by_scene_bins_by_balls_and_by_overlap_gap():
     assert by_balls.value.tolist() == [2.0, 5.0, 7.0]  # the last bin grows to 30 balls
     by_gap = out[out.by == "min_depth_separation"]
     assert by_gap.value.tolist() == [1.0, 6.0]  # the example without overlaps left out
+
+
+def test_an_empty_reference_is_not_scored_as_perfect_but_marked_empty(make_scene):
+    # A ball of radius 1e-9: nothing of the surface reaches a pixel.
+    empty = raymarch.render_gbuffers(make_scene([[0.0, 0.0, 15.0]], [1e-9]), 32).stack()
+    assert not gbuffers.silhouette_depth(empty).any()
+    assert evaluate.example_metrics(empty, empty) == {EMPTY_FRAME: 1.0}
+    drawn = inputs.draw_spheres(make_scene([[0.0, 0.0, 15.0]], [2.0]), 32).stack()
+    assert evaluate.example_metrics(drawn, empty) == {EMPTY_FRAME: 1.0}  # nothing to score
+
+
+def test_a_frame_with_a_surface_keeps_every_score_and_is_marked_not_empty(make_scene):
+    scene = make_scene([[0.0, 0.0, 12.0], [1.0, 1.0, 16.0]], [1.0, 1.5])
+    g = raymarch.render_gbuffers(scene, 32).stack()
+    m = evaluate.example_metrics(inputs.draw_spheres(scene, 32).stack(), g)
+    assert m[EMPTY_FRAME] == 0.0 and list(m)[-1] == EMPTY_FRAME  # after the scores
+    assert {"iou_depth", "iou_normal", "depth_error_world", "normal_error_mean_deg"} <= set(m)
+    assert all(math.isfinite(v) for v in m.values())
+
+
+def test_means_leave_empty_frames_out_and_count_them_per_model():
+    keys = {"method": "metaballs", "dataset": "test scenes", "split": "test"}
+    rows = [
+        # model a: two scored frames and one empty; model b: one scored frame
+        *[
+            {**keys, "model": "a", "example": 0, "metric": m, "value": v}
+            for m, v in [("iou_depth", 0.5), (EMPTY_FRAME, 0.0)]
+        ],
+        *[
+            {**keys, "model": "a", "example": 1, "metric": m, "value": v}
+            for m, v in [("iou_depth", 0.7), (EMPTY_FRAME, 0.0)]
+        ],
+        {**keys, "model": "a", "example": 2, "metric": EMPTY_FRAME, "value": 1.0},
+        *[
+            {**keys, "model": "b", "example": 0, "metric": m, "value": v}
+            for m, v in [("iou_depth", 0.9), (EMPTY_FRAME, 0.0)]
+        ],
+    ]
+    means = evaluate.mean_metrics(pd.DataFrame(rows)).set_index(["model", "metric"])["value"]
+    assert means[("a", "iou_depth")] == pytest.approx(0.6)  # not (0.5 + 0.7 + 1) / 3
+    assert means[("a", EMPTY_FRAMES)] == 1.0 and means[("b", EMPTY_FRAMES)] == 0.0
+    assert EMPTY_FRAME not in means.index.get_level_values("metric")

@@ -105,3 +105,20 @@ def test_every_network_is_checked_against_the_refined_impostors_and_they_are_not
     angle = "better than refined spheres (no learning) on normal_error_mean_deg (2.5)"
     assert against.loc[iou, "met"] and not against.loc[angle, "met"]
     assert against.loc[angle, "measured"] == 3.0
+
+
+def test_the_count_of_empty_frames_is_no_score_to_beat():
+    metrics = _metrics(
+        [
+            ("net", "iou_depth", 0.99),
+            ("net", "normal_error_mean_deg", 2.0),
+            ("net", "empty_frames", 1.0),
+            ("isolated spheres", "iou_depth", 0.8),
+            ("isolated spheres", "normal_error_mean_deg", 20.0),
+            ("isolated spheres", "empty_frames", 1.0),
+        ]
+    )
+    equal = pd.DataFrame(columns=["model", "setting", "metric", "value"])
+    table = summary.targets(metrics, _metrics([]), equal, width=128)
+    assert not table.check.str.contains("empty_frames").any()
+    assert table.met.all()

@@ -8,10 +8,26 @@ import pandas as pd
 import pytest
 import torch
 
-from neurender.metaballs import method, raymarch
+from neurender.metaball import THRESHOLD
+from neurender.metaballs import (
+    EMPTY_FRAME,
+    VARIANTS,
+    gbuffers,
+    jobs,
+    method,
+    raymarch,
+    scene_file,
+)
 from neurender.metaballs.model import network_inputs
 from neurender.metaballs.scene_file import read_user_scenes
-from neurender.metaballs.user_scenes import outside_training, score_user_scenes, to_scenes
+from neurender.metaballs.user_scenes import (
+    NEAR_PLANE_CUT,
+    near_plane_cut,
+    outside_training,
+    score_user_scenes,
+    to_scenes,
+    view_notes,
+)
 
 BALLS = pd.DataFrame(
     {
@@ -134,6 +150,8 @@ def test_scores_are_the_test_sets_metrics_and_an_exact_renderer_scores_perfectly
         assert exact_rows[(label, "iou_depth")] == 1.0
         assert exact_rows[(label, "l1_normal")] < 1 / 255  # the truth went through 8 bits
         assert exact_rows[(label, "normal_error_mean_deg")] < 1.0
+        assert exact_rows[(label, EMPTY_FRAME)] == 0.0 and exact_rows[(label, NEAR_PLANE_CUT)] == 0
+    assert view_notes(frame) == []  # an ordinary scene: nothing to warn about
     assert shown["a"].circles.shape == (4, 32, 32) and shown["a"].truth.shape == (7, 32, 32)
 
 
@@ -223,3 +241,90 @@ def test_the_scenes_figure_draws_labels_as_plain_text(tmp_path, monkeypatch):
     titles = [t for t in drawn["titles"] if "circles" in t.get_text()]
     assert [t.get_text() for t in titles] == [f"scene {s} (2 balls): circles" for s in labels]
     assert not any(t.get_parse_math() or t.get_usetex() for t in drawn["titles"])
+
+
+def _one_ball(tmp_path, name, z, radius, scene="tiny", x=0.0):
+    """The scenes :data:`BALLS` with a last row (line 6) of one ball in a scene of its own."""
+    row = {"scene": scene, "x": x, "y": 0.0, "z": z, "radius": radius}
+    row |= {"r": 0.5, "g": 0.5, "b": 0.5, "note": ""}
+    return _csv(tmp_path, pd.concat([BALLS, pd.DataFrame([row])], ignore_index=True), name)
+
+
+class Blank:
+    """A stand-in network that draws nothing (background everywhere)."""
+
+    def __init__(self, width):
+        self.width = width
+
+    def inputs(self, scene, circles=None):
+        return network_inputs(scene, self.width, "pix2pix", circles)
+
+    def __call__(self, x):
+        out = torch.zeros(len(x), 7, self.width, self.width)
+        out[:, gbuffers.DEPTH] = 1.0
+        return out
+
+
+def test_a_scene_with_nothing_in_view_is_warned_marked_empty_and_not_scored_as_perfect(
+    tmp_path, monkeypatch, caplog
+):
+    path = _one_ball(tmp_path, "tiny.csv", 15.0, 1e-9)
+    monkeypatch.setattr(jobs, "load_renderers", lambda *a: {v: Blank(32) for v in VARIANTS})
+    outputs = {"table": str(tmp_path / "user_scenes.csv"), "figure": str(tmp_path / "f.png")}
+    params = {"device": "cpu", "width": 32}
+    with caplog.at_level("WARNING"):
+        jobs.metaballs_user_scenes({"scenes": str(path), "checkpoints": []}, outputs, params, 1)
+    # The table the report reads: the empty scene has its mark and no score, for every model
+    # (a blank network's empty frame would otherwise score IoU 1 and SSIM 1).
+    table = pd.read_csv(outputs["table"])
+    tiny = table[table.scene == "tiny"]
+    assert set(tiny.model) == {*VARIANTS, "isolated spheres", "inflated spheres", "refined spheres"}
+    assert set(tiny.metric) == {EMPTY_FRAME, NEAR_PLANE_CUT}
+    assert (tiny[tiny.metric == EMPTY_FRAME].value == 1.0).all()
+    others = table[table.scene != "tiny"]
+    assert (others[others.metric == EMPTY_FRAME].value == 0.0).all()
+    assert "iou_depth" in set(others.metric)
+    (warning,) = [r.getMessage() for r in caplog.records if "nothing of the surface" in r.message]
+    assert str(path) in warning and "scene 'tiny'" in warning and "empty_frame = 1" in warning
+
+
+def test_a_ball_holding_the_camera_is_refused_naming_the_file_scene_and_line(tmp_path):
+    path = _one_ball(tmp_path, "wall.csv", 15.0, 1e3, scene="wall")
+    with pytest.raises(ValueError) as err:
+        read_user_scenes(path)
+    message = str(err.value)
+    assert message.startswith(f"metaball scenes {path}: scene 'wall': the camera")
+    assert "inside the metaball surface" in message and "line(s) 6" in message
+    assert "radius 1000 at distance 15" in message and "Expected a field below 1" in message
+    assert scene_file.SURFACE_FIELD == THRESHOLD  # the torch-free copy of the surface level
+    cfg = {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32, "user_scenes": str(path)}
+    (problem,) = method.problems({"metaballs": cfg})  # refused before any job
+    assert problem.startswith(f"metaballs.user_scenes = '{path}'") and "scene 'wall'" in problem
+
+
+def test_balls_that_together_hold_the_camera_are_refused_naming_all_their_lines(tmp_path):
+    # Each ball alone leaves the camera outside (r^2 / d^2 = 0.36), three of them do not.
+    rows = [
+        {"scene": "crowd", "x": x, "y": 0.0, "z": 4.0, "radius": 3.0, "r": 0, "g": 0, "b": 0}
+        for x in (-3.0, 0.0, 3.0)
+    ]
+    rows[1]["z"] = 5.0
+    path = _csv(tmp_path, pd.concat([BALLS, pd.DataFrame(rows)], ignore_index=True), "crowd.csv")
+    with pytest.raises(ValueError, match=r"scene 'crowd'.*together.*line\(s\) 6, 7, 8"):
+        read_user_scenes(path)
+
+
+def test_the_near_plane_cut_is_where_the_marched_target_is_a_flat_wall(tmp_path, caplog):
+    # A ball at depth 8.5 of radius 2.5 reaches depth 6, in front of the near plane at 7.
+    path = _one_ball(tmp_path, "near.csv", 8.5, 2.5, scene="near")
+    scene = to_scenes(read_user_scenes(path))["near"]
+    marched = raymarch.render_gbuffers(scene, 32)
+    wall = (marched.depth == 0).double().mean()  # the marcher stops at once: depth 7
+    assert near_plane_cut(scene, 32) == pytest.approx(float(wall)) and 0.05 < wall < 1
+    frame, _ = score_user_scenes({"near": scene}, {}, 32)
+    cut = frame[frame.metric == NEAR_PLANE_CUT]
+    assert set(cut.model) == {"isolated spheres", "inflated spheres", "refined spheres"}
+    assert (cut.value == near_plane_cut(scene, 32)).all()
+    (note,) = view_notes(frame)
+    assert note.startswith("scene 'near': the near plane (depth 7) cuts the surface on")
+    assert f"{NEAR_PLANE_CUT} = " in note

@@ -64,12 +64,25 @@ def test_a_share_of_procedural_maps_has_the_small_sun():
         )
 
 
-def test_every_user_map_is_checked_before_any_sample_is_rendered(tmp_path):
+def _nan_texel(image):
+    image[4, 4] = np.nan
+    return image
+
+
+@pytest.mark.parametrize(
+    ("spoil", "problem"),
+    [
+        (_nan_texel, "has 3 NaN or infinite values"),
+        (lambda image: -image, "has no positive radiance"),
+        (np.zeros_like, "has no positive radiance"),
+    ],
+    ids=["nan", "negative", "zeros"],
+)
+def test_every_user_map_is_checked_before_any_sample_is_rendered(tmp_path, spoil, problem):
     maps = tmp_path / "maps"
     maps.mkdir()
     good = np.ones((16, 32, 3), np.float32)
-    bad = good.copy()
-    bad[4, 4] = np.nan
+    bad = spoil(good.copy())
     for name, image in (("a_good", good), ("b_broken", bad), ("c_good", good)):
         io.write_exr(maps / f"{name}.exr", {c: image[..., i] for i, c in enumerate("RGB")})
     cfg = {
@@ -79,6 +92,19 @@ def test_every_user_map_is_checked_before_any_sample_is_rendered(tmp_path):
         "environment_height": 16,
     }
     out = tmp_path / "train"
-    with pytest.raises(ValueError, match=r"b_broken\.exr has 3 NaN or infinite values"):
+    with pytest.raises(ValueError, match=r"b_broken\.exr \(ndr\.user_probes_dir\) " + problem):
         data.generate_split(cfg, "train", 4, out, tmp_path / "m.csv", tmp_path / "l.csv", 1)
     assert not out.exists()  # stopped before the first sample
+
+
+def test_a_map_in_another_format_stops_the_job_naming_it(tmp_path):
+    """A folder the workflow makes (under results/) is checked when the job runs: a map in
+    another format is refused there too, not left out."""
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    io.write_exr(maps / "studio.exr", {c: np.ones((4, 8), np.float32) for c in "RGB"})
+    (maps / "sunset.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n")
+    with pytest.raises(ValueError, match=r"ndr\.user_probes_dir = .*\(sunset\.hdr\)"):
+        environments.user_probes(maps)
+    (maps / "sunset.hdr").unlink()
+    assert environments.user_probes(maps) == [maps / "studio.exr"]

@@ -241,6 +241,7 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     validate(cfg, str(root / "workflow/schemas/config.schema.yaml"))
     (tmp_path / "a.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     (tmp_path / "folder.obj").mkdir()
+    (tmp_path / "notes.txt").write_text("a mesh, maybe\n")
     cfg["ndr"]["user_objects"] = {
         "gone": str(tmp_path / "gone.glb"),
         "folder": str(tmp_path / "folder.obj"),
@@ -250,11 +251,14 @@ def test_the_config_check_names_missing_and_unreadable_objects(tmp_path):
     }
     found = [p for p in rules.problems(cfg) if "user_objects" in p]
     assert found == [
-        f"ndr.user_objects entry 'gone': file {tmp_path / 'gone.glb'} does not exist",
-        f"ndr.user_objects entry 'folder': file {tmp_path / 'folder.obj'} is a folder, not a file",
-        f"ndr.user_objects entry 'text': {tmp_path / 'notes.txt'} is not a mesh file NDR reads "
+        f"ndr.user_objects.gone = '{tmp_path / 'gone.glb'}': does not exist; expected a mesh "
+        f"file NDR reads ({', '.join(MESH_SUFFIXES)})",
+        f"ndr.user_objects.folder = '{tmp_path / 'folder.obj'}': is a folder, not a file; "
+        f"expected a mesh file NDR reads ({', '.join(MESH_SUFFIXES)})",
+        f"ndr.user_objects.text = '{tmp_path / 'notes.txt'}': expected a mesh file NDR reads "
         f"({', '.join(MESH_SUFFIXES)})",
-        f"ndr.user_objects entry 'obj': {tmp_path / 'a.obj'} names a.mtl ({tmp_path / 'a.mtl'}), "
+        f"ndr.user_objects.obj = '{tmp_path / 'a.obj'}': {tmp_path / 'a.obj'} names a.mtl "
+        f"({tmp_path / 'a.mtl'}), "
         "which does not exist",
     ]
 

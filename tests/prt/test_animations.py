@@ -220,3 +220,52 @@ def test_unreadable_and_empty_inputs_name_the_file(tmp_path):
         animations.load_sequence([str(bad)], [], "prt.user_sequences.bad")
     with pytest.raises(ValueError, match=r"prt.user_sequences.none.frames: no mesh files"):
         animations.load_sequence([str(tmp_path / "missing")], [], "prt.user_sequences.none")
+
+
+def _sphere_frames(folder, frames=6):
+    """A breathing icosphere (642 vertices), one OBJ per frame, written as stored."""
+    mesh = trimesh.creation.icosphere(3)
+    folder.mkdir(parents=True, exist_ok=True)
+    for f in range(frames):
+        scale = 1 + 0.1 * math.sin(f)
+        frame = trimesh.Trimesh(mesh.vertices * scale, mesh.faces, process=False)
+        frame.export(folder / f"frame_{f:03d}.obj")
+    return folder, mesh
+
+
+def test_a_frame_with_its_vertices_reordered_is_refused_naming_it(tmp_path):
+    # The same triangles, the vertices' positions in another order: on the unit sphere
+    # they move by up to its diameter, which edge lengths show and counts do not.
+    folder, mesh = _sphere_frames(tmp_path / "ball")
+    order = np.random.default_rng(0).permutation(len(mesh.vertices))
+    scrambled = trimesh.Trimesh(mesh.vertices[order], mesh.faces, process=False)
+    scrambled.export(folder / "frame_003.obj")
+    with pytest.raises(ValueError) as info:
+        animations.load_sequence([str(folder)], [], "prt.user_sequences.ball")
+    message = str(info.value)
+    assert "prt.user_sequences.ball.frames: frame 4 of 6" in message
+    assert str(folder / "frame_003.obj") in message and str(folder / "frame_000.obj") in message
+    assert "same vertices in the same order as the rest frame" in message
+    share = int(message.split("but ")[1].split("%")[0])
+    assert share > 80  # nearly every edge runs across the sphere
+    # A test frame is checked against the rest frame the same way.
+    test = tmp_path / "test"
+    test.mkdir()
+    (folder / "frame_003.obj").rename(test / "pose.obj")
+    with pytest.raises(ValueError, match=r"ball\.test_frames: frame 1 of 1, .*pose\.obj, has"):
+        animations.load_sequence([str(folder)], [str(test)], "prt.user_sequences.ball")
+
+
+def test_deformations_scaling_and_the_example_animations_pass_the_edge_check(tmp_path):
+    from neurender import examples
+
+    folder, mesh = _sphere_frames(tmp_path / "ball", frames=4)
+    # Scaled 5 x as a whole, and squashed to a fifth of its height: real, if extreme.
+    for f, scale in ((4, [5, 5, 5]), (5, [1.5, 1.5, 0.2])):
+        frame = trimesh.Trimesh(mesh.vertices * scale, mesh.faces, process=False)
+        frame.export(folder / f"frame_{f:03d}.obj")
+    assert len(animations.load_sequence([str(folder)], [], "ball")[0].files) == 6
+    for make in (examples.wave_sequence, examples.blob_sequence, examples.torus_sequence):
+        make(tmp_path / make.__name__)
+        frames, _ = animations.load_sequence([str(tmp_path / make.__name__)], [], "x")
+        assert len(frames.files) == examples.SEQUENCE_FRAMES

@@ -68,6 +68,18 @@ def test_probe_sh_first_bands_are_the_lower_order_projection(head):
     )
 
 
+def test_a_user_probe_without_positive_radiance_stops_its_job_naming_file_and_key(tmp_path):
+    source = tmp_path / "night.exr"
+    io.write_exr(source, {c: np.full((8, 16), -0.1, np.float32) for c in "RGB"})
+    outputs = {"exr": tmp_path / "out.exr", "sh": tmp_path / "out_sh.csv"}
+    with pytest.raises(ValueError) as caught:
+        data_jobs.prt_probe({"source": source}, outputs, {**CFG, "probe": "night"}, 1)
+    message = str(caught.value)
+    assert f"light probe {source} (prt.user_probes.night) has no positive radiance" in message
+    assert "expected a map with positive radiance" in message
+    assert not outputs["exr"].exists()
+
+
 def test_data_jobs_load_no_torch():
     """The data jobs' module (imported by about 50 small jobs a run) keeps torch, ONNX and
     matplotlib out, so each such job starts in a fraction of a second."""

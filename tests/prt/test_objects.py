@@ -44,6 +44,27 @@ def _geometry_image(tmp_path, path):
     return io.read_csv(out["stats"]).set_index("metric")["value"]
 
 
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (512345.0, 5412345.0, 230.0)])
+def test_a_user_mesh_far_from_the_origin_is_warned_about_naming_file_and_key(
+    tmp_path, caplog, offset
+):
+    """A scan in georeferenced coordinates (UTM, metres): DeepPRT keeps positions in
+    float32, 0.5 m apart at y ~ 5.4e6 m, so a 3 m creature would lose its shape."""
+    mesh = objects.source_mesh("creature", 300, 0)
+    path = tmp_path / "scan.obj"  # float64 digits, as a georeferenced export holds them
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.vertices + offset]
+    path.write_text("\n".join(lines + [f"f {a} {b} {c}" for a, b, c in mesh.faces + 1]))
+    with caplog.at_level("WARNING", logger="neurender.prt.objects"):
+        _geometry_image(tmp_path, path)
+    warned = [r.getMessage() for r in caplog.records if r.name == "neurender.prt.objects"]
+    if offset[0] == 0:
+        assert warned == []
+    else:
+        assert len(warned) == 1
+        assert str(path) in warned[0] and "prt.user_meshes.mine" in warned[0]
+        assert "5.41" in warned[0] and "float32" in warned[0]
+
+
 @pytest.mark.parametrize(
     "make, genus",
     [(lambda: trimesh.creation.icosphere(1), 0), (lambda: _torus_with_a_hole(), 1)],
@@ -75,3 +96,20 @@ def _torus_with_a_hole():
     loop, genus 1."""
     torus = trimesh.creation.torus(1.0, 0.3, major_sections=24, minor_sections=12)
     return trimesh.Trimesh(torus.vertices, torus.faces[1:])
+
+
+@pytest.mark.parametrize("suffix", [".stl", ".obj"])
+def test_a_one_triangle_user_mesh_is_refused_naming_the_file(tmp_path, suffix):
+    # An STL declares no vertex count, so only the job sees it; the OBJ's count is refused
+    # by the dry run too (tests/prt/test_user_config.py).
+    path = tmp_path / f"tri{suffix}"
+    trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]).export(path)
+    with pytest.raises(ValueError) as info:
+        _geometry_image(tmp_path, path)
+    message = str(info.value)
+    assert f"mesh {path}: " in message
+    assert "boundary loop has 3 vertices; expected at least 4" in message
+    quad = tmp_path / f"quad{suffix}"
+    square = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
+    trimesh.Trimesh(square, [[0, 1, 2], [0, 2, 3]]).export(quad)
+    assert _geometry_image(tmp_path, quad)["flipped_triangles"] == 0

@@ -38,10 +38,14 @@ def _with_sequences(cfg, sequences, objects=None):
     return changed
 
 
+#: Three more vertices of an OBJ stand-in, so its header declares enough to map (4).
+QUAD = "v 1 0 0\nv 1 1 0\nv 0 1 0\n"
+
+
 def _frames(folder: Path, count: int, suffix: str = ".obj") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     for f in range(count):  # every frame its own content, so no two files are equal
-        (folder / f"frame_{f:03d}{suffix}").write_text(f"v {f} 0 0\n# {folder.name}\n")
+        (folder / f"frame_{f:03d}{suffix}").write_text(f"v {f} 0 0\n{QUAD}# {folder.name}\n")
     return folder
 
 
@@ -92,18 +96,18 @@ def test_an_object_must_be_built_in_or_a_user_entry(smoke):
 
 def test_user_mesh_and_user_sequence_names_must_not_clash(smoke, tmp_path):
     mesh = tmp_path / "m.obj"
-    mesh.write_text("v 0 0 0\n")
+    mesh.write_text("v 0 0 0\n" + QUAD)
     changed = _with_sequences(smoke, {"wave": {"frames": "results/examples/wave"}})
     changed["prt"]["user_meshes"] = {"wave": str(mesh)}
-    found = rules.problems(changed)
-    assert found == ["prt user object 'wave' is both in prt.user_meshes and in prt.user_sequences"]
+    (found,) = rules.problems(changed)
+    assert "prt.user_meshes.wave and prt.user_sequences.wave" in found
 
 
 @pytest.mark.parametrize("name", ["head", "plane", "head_linear"])
 def test_user_names_must_not_take_a_built_in_name(smoke, name):
     changed = _with_sequences(smoke, {name: {"frames": "results/examples/wave"}}, ["cloth"])
     found = rules.problems(changed)
-    assert len(found) == 1 and f"prt user object {name!r}: the name of a built-in" in found[0]
+    assert len(found) == 1 and f"prt.user_sequences.{name}: the name of a built-in" in found[0]
 
 
 def test_frames_and_test_frames_must_hold_mesh_files(smoke, tmp_path):
@@ -236,3 +240,64 @@ def test_a_fifo_or_a_folder_named_as_a_frame_is_named_as_such(smoke, tmp_path):
     assert rules.problems(changed) == [
         f"prt.user_sequences.w.frames = {str(fifo)!r}: is a named pipe (FIFO), not a file"
     ]
+
+
+def test_a_folder_given_as_a_user_mesh_or_probe_names_its_key(smoke, tmp_path):
+    folder = tmp_path / "some" / "folder"
+    folder.mkdir(parents=True)
+    changed = copy.deepcopy(smoke)
+    changed["prt"]["user_meshes"] = {"mine": str(folder)}
+    changed["prt"]["user_probes"] = {"sky2": str(folder)}
+    mesh, probe = rules.problems(changed)
+    assert mesh.startswith(f"prt.user_meshes.mine = {str(folder)!r}: is a folder, not a file")
+    assert "expected a mesh file (.obj, .ply" in mesh
+    assert probe.startswith(f"prt.user_probes.sky2 = {str(folder)!r}: is a folder, not a file")
+    assert "expected a lat-long EXR light probe (.exr)" in probe
+
+
+def test_a_file_of_another_format_given_as_a_user_mesh_is_refused(smoke, tmp_path):
+    fbx = tmp_path / "mine.fbx"
+    fbx.write_bytes(b"Kaydara FBX Binary  \x00")
+    changed = copy.deepcopy(smoke)
+    changed["prt"]["user_meshes"] = {"mine": str(fbx)}
+    (problem,) = rules.problems(changed)
+    assert problem.startswith(f"prt.user_meshes.mine = {str(fbx)!r}: expected a mesh file (")
+    assert ".vtp" in problem and ".glb" in problem
+
+
+def _triangle(path: Path) -> Path:
+    """One triangle as Blender, trimesh or a text editor writes it, per format."""
+    if path.suffix == ".obj":
+        path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    elif path.suffix == ".off":
+        path.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    else:
+        pv.PolyData(np.eye(3), faces=[3, 0, 1, 2]).save(str(path))
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".off"])
+def test_a_one_triangle_user_mesh_fails_the_dry_run(smoke, tmp_path, suffix):
+    tri = _triangle(tmp_path / f"tri{suffix}")
+    changed = copy.deepcopy(smoke)
+    changed["prt"]["user_meshes"] = {"tri": str(tri)}
+    changed["prt"]["objects"] = ["tri"]
+    (problem,) = rules.problems(changed)
+    assert problem.startswith(f"prt.user_meshes.tri = {str(tri)!r}: 3 vertices; expected")
+    assert "a boundary loop of at least 4 vertices" in problem
+    quad = tmp_path / "quad.obj"  # two triangles: 4 boundary vertices, one per corner
+    quad.write_text("v 0 0 0\n" + QUAD + "f 1 2 3\nf 1 3 4\n")
+    changed["prt"]["user_meshes"] = {"tri": str(quad)}
+    assert rules.problems(changed) == []
+
+
+def test_a_one_triangle_rest_frame_fails_the_dry_run(smoke, tmp_path):
+    folder = tmp_path / "tri"
+    folder.mkdir()
+    for f in range(4):
+        (folder / f"frame_{f}.obj").write_text(f"v 0 0 {f}\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (problem,) = rules.problems(_with_sequences(smoke, {"t": {"frames": str(folder)}}))
+    assert problem.startswith(
+        f"prt.user_sequences.t: the rest frame {folder / 'frame_0.obj'} has 3 vertices; expected"
+    )
+    assert "a boundary loop of at least 4 vertices" in problem

@@ -26,6 +26,7 @@ from neurender.simplification import (
     mesh_ops,
     render,
     terminator,
+    user_mesh,
 )
 
 HERE = Path(__file__).resolve().parent
@@ -216,6 +217,47 @@ def test_exported_glb_and_obj_rerender_within_a_tenth_of_a_db(
         assert abs(again - direct) < 0.1, kind
 
 
+@pytest.fixture(scope="module")
+def far_away(tmp_path_factory):
+    """A 2 m rock in georeferenced coordinates (UTM, metres, as scans are exported) through
+    the stage's normalisation, QEM and xatlas, exported with flat maps;
+    ``(stage-frame atlas mesh, to_asset, folder)``."""
+    folder = tmp_path_factory.mktemp("far")
+    rock = trimesh.creation.icosphere(3)
+    source = folder / "utm.obj"  # float64 digits (trimesh writes PLY in float32)
+    utm = rock.vertices + [512345.0, 5412345.0, 230.0]
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in utm]
+    source.write_text("\n".join(lines + [f"f {a} {b} {c}" for a, b, c in rock.faces + 1]))
+    mesh = user_mesh.load(source)
+    scale, offset = assets.normalisation(mesh)
+    stage = mesh.transformed(scale, offset)
+    low = mesh_ops.uv_atlas(*mesh_ops.decimate(stage.vertices, stage.faces, 200), 16)
+    to_asset = assets.to_asset_matrix(scale, offset)
+    paths = {k: folder / name for k, name in EXPORT_FILES.items()}
+    flat = np.broadcast_to([0.5, 0.5, 1.0], (16, 16, 3))
+    export.export(paths, low, low.positions, np.full((16, 16, 3), 0.5), flat, to_asset)
+    return low, to_asset, folder
+
+
+def test_an_asset_far_from_the_origin_reads_back_in_its_own_place(far_away):
+    """Read back, the GLB (node translation applied) and the OBJ hold the asset's vertices,
+    in its units and place, to float32's precision of its own size, as an asset about the
+    origin does (float32 coordinates at y ~ 5.4e6 m are 0.5 m apart on a 2 m rock)."""
+    low, to_asset, folder = far_away
+    paths = {k: folder / name for k, name in EXPORT_FILES.items()}
+    world = low.atlas_positions() @ to_asset[:3, :3].T + to_asset[:3, 3]
+    size = np.ptp(world, axis=0).max()
+    for kind in ("glb", "obj"):
+        again = trimesh.load(paths[kind], force="mesh", process=False)
+        assert np.abs(np.sort(again.vertices, 0) - np.sort(world, 0)).max() < 1e-6 * size, kind
+        back, _, _ = export.reimport(paths[kind], to_asset)  # into the stage's frame
+        stage_size = np.ptp(low.positions, axis=0).max()
+        error = np.abs(back.atlas_positions() - low.atlas_positions()).max()
+        assert error < 1e-6 * stage_size, kind
+    tree, _ = read_glb(paths["glb"])
+    assert np.abs(np.array(tree["nodes"][0]["translation"]) - world.mean(0)).max() < size
+
+
 def gltf_validator() -> str | None:
     """The Khronos ``gltf-validator`` npm package's folder: ``$GLTF_VALIDATOR``, the
     repository's ``node_modules`` or npm's global root."""
@@ -229,13 +271,14 @@ def gltf_validator() -> str | None:
     return next((c for c in candidates if c and (Path(c) / "package.json").is_file()), None)
 
 
-def test_khronos_gltf_validator_finds_no_issue(exported):
+@pytest.mark.parametrize("case", ["exported", "far_away"])
+def test_khronos_gltf_validator_finds_no_issue(case, request):
     if shutil.which("node") is None:
         pytest.skip("node is not installed (the Khronos glTF validator runs on node)")
     package = gltf_validator()
     if package is None:
         pytest.skip("npm package gltf-validator not found (npm install --no-save gltf-validator)")
-    glb = exported[-1] / EXPORT_FILES["glb"]
+    glb = request.getfixturevalue(case)[-1] / EXPORT_FILES["glb"]
     run = subprocess.run(
         ["node", str(HERE / "gltf_validate.js"), package, str(glb)],
         capture_output=True,

@@ -81,6 +81,7 @@ def test_missing_files_unknown_formats_and_built_in_names_are_refused(base, tmp_
     (tmp_path / "crate.obj").write_text("mtllib crate.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     (tmp_path / "crate.mtl").write_text("newmtl a\nmap_Kd crate.png\n")
     os.mkfifo(tmp_path / "pipe.glb")
+    (tmp_path / "mesh.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
     cfg = with_assets(
         base,
         {
@@ -94,9 +95,10 @@ def test_missing_files_unknown_formats_and_built_in_names_are_refused(base, tmp_
         },
     )
     assert simplification_problems(cfg) == [
-        f"simplification.user_assets.gone.path = '{tmp_path / 'gone.glb'}': file does not exist",
-        f"simplification.user_assets.pipe.path = '{tmp_path / 'pipe.glb'}': file is a named pipe "
-        "(FIFO), not a file",
+        f"simplification.user_assets.gone.path = '{tmp_path / 'gone.glb'}': does not exist; "
+        "expected a mesh file (.obj, .glb, .gltf, .ply, .off, .stl)",
+        f"simplification.user_assets.pipe.path = '{tmp_path / 'pipe.glb'}': is a named pipe "
+        "(FIFO), not a file; expected a mesh file (.obj, .glb, .gltf, .ply, .off, .stl)",
         f"simplification.user_assets.fbx.path = '{tmp_path / 'mesh.fbx'}': expected a mesh file "
         "(.obj, .glb, .gltf, .ply, .off, .stl)",
         "simplification.user_assets.head: the name of a built-in case (head, metaballs); "

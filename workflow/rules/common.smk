@@ -9,9 +9,11 @@ import neurender.config
 import neurender.methods
 from neurender.user_paths import as_input, files_of, made_by_the_workflow
 
-# Validate (and fill defaults) before any job runs: a key an older release named
-# differently fails with its new name, unknown keys and wrong types fail here, then the
-# rules between keys (neurender/config.py), naming the keys and values.
+# Validate (and fill defaults) before any job runs: a key set twice in one config file
+# (which Snakemake's reader lets the last win) fails naming the file and lines, a key an
+# older release named differently fails with its new name, unknown keys and wrong types
+# fail here, then the rules between keys (neurender/config.py), naming the keys and values.
+neurender.config.check_files(workflow.configfiles)
 neurender.config.check_renamed(config, workflow.configfiles)
 neurender.config.check_names_are_text(config)
 validate(config, schema="../schemas/config.schema.yaml")

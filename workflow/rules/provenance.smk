@@ -4,6 +4,7 @@
 # runs where the workflow runs, so the record describes the machine that ran the
 # invocation, not a compute node.
 import neurender.provenance
+from neurender.user_paths import workdir_relative
 
 #: When the invocation began and its --cores (written by the onstart hook of a real run
 #: only; not params, so that a rerun with other --cores has nothing to do).
@@ -35,8 +36,9 @@ rule provenance:
     params:
         cfg={
             "config": config,
-            "configfiles": [str(f) for f in workflow.configfiles],
-            "root": workflow.basedir,
+            # Relative paths: a checkout moved with its results reruns nothing.
+            "configfiles": [workdir_relative(f) for f in workflow.configfiles],
+            "root": workdir_relative(workflow.basedir),
             "start_marker": PROVENANCE_START,
         },
     script:

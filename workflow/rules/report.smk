@@ -1,4 +1,5 @@
 # The HTML report: every measured table and figure beside the papers' numbers.
+from neurender.user_paths import workdir_relative
 
 
 rule report:
@@ -20,7 +21,8 @@ rule report:
     params:
         cfg={
             "title": config["report"]["title"],
-            "configfiles": [str(f) for f in workflow.configfiles],
+            # Relative paths: a checkout moved with its results reruns nothing.
+            "configfiles": [workdir_relative(f) for f in workflow.configfiles],
             "seed": config["seed"],
         },
     script:

@@ -31,6 +31,13 @@ DEMO_VARIANTS = ("pix2pix", "sphere_residual")
 #: equal-quality sweep times it beside the networks.
 REFINED_BASELINE = "refined spheres"
 
+#: The per-frame row of the evaluation's tables that says whether the frame's reference
+#: shows no surface (1) or some (0), and the per-model count of such frames in the means
+#: table (:func:`neurender.metaballs.evaluate.example_metrics`, ``mean_metrics``): an empty
+#: frame has no scores, so that nothing scores it as perfect.
+EMPTY_FRAME = "empty_frame"
+EMPTY_FRAMES = "empty_frames"
+
 #: Copies of each training example with ``metaballs_model.flips``: as it is and mirrored in
 #: x, in y and in both (:class:`neurender.metaballs.dataset.ABDataset`).
 MIRRORINGS = 4

@@ -105,7 +105,8 @@ def score_settings(
             pred, s = timed(render, scene, width, setting, repeats=repeats)
             seconds.append(s)
             metrics.append(evaluate.example_metrics(pred, target))
-        means = pd.DataFrame(metrics)[list(QUALITY)].mean()
+        # An empty frame has no scores (NaN here): left out of the means, as the networks'.
+        means = pd.DataFrame(metrics).reindex(columns=list(QUALITY)).mean()
         rows.append(
             {
                 **dataclasses.asdict(setting),

@@ -4,7 +4,10 @@ only pictures).
 Predictions and truths are G-buffer stacks ``(7, W, W)`` in [0, 1]
 (:mod:`neurender.metaballs.gbuffers`). Per buffer: L1 and SSIM. Silhouette IoU by depth and
 by the normal buffer. Normal errors are angles between decoded unit normals inside the true
-silhouette (by depth); depth errors are in world units inside it.
+silhouette (by depth); depth errors are in world units inside it. A frame whose reference
+shows no surface (an empty true silhouette by depth) is not scored: every metric would call
+an empty prediction perfect. Its row ``empty_frame`` is 1 (0 on every scored frame) and the
+means leave it out, counting such frames per model as ``empty_frames``.
 
 No-learning baselines: "isolated spheres" (every ball a sphere of radius ``r``: exactly what
 a circle of the input encodes, without the blend), "inflated spheres" (radius grown by
@@ -16,6 +19,7 @@ residual model starts from) and "refined spheres" (those impostors refined on th
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -25,7 +29,15 @@ from tqdm import tqdm
 
 from neurender import metrics
 from neurender.metaball import Scene
-from neurender.metaballs import REFINED_BASELINE, ab, gbuffers, inputs, scenes
+from neurender.metaballs import (
+    EMPTY_FRAME,
+    EMPTY_FRAMES,
+    REFINED_BASELINE,
+    ab,
+    gbuffers,
+    inputs,
+    scenes,
+)
 from neurender.metaballs.refined import refined_spheres
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.tables import tidy_rows
@@ -40,9 +52,10 @@ TEST_DATASET = "test scenes"
 
 
 def iou(a: torch.Tensor, b: torch.Tensor) -> float:
-    """Intersection over union of two bool masks (1 when both are empty)."""
+    """Intersection over union of two bool masks; NaN when both are empty (nothing to
+    overlap: an empty prediction of an empty reference is not a perfect one)."""
     union = (a | b).sum()
-    return float((a & b).sum() / union) if union else 1.0
+    return float((a & b).sum() / union) if union else math.nan
 
 
 def normal_angles(pred: torch.Tensor, gt: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -54,24 +67,26 @@ def normal_angles(pred: torch.Tensor, gt: torch.Tensor, mask: torch.Tensor) -> t
 
 
 def example_metrics(pred: torch.Tensor, gt: torch.Tensor) -> dict[str, float]:
-    """All metrics of one predicted stack against the ray-marched one."""
+    """All metrics of one predicted stack against the ray-marched one, then
+    :data:`~neurender.metaballs.EMPTY_FRAME` 0; for a reference without a surface pixel
+    (by depth) only ``EMPTY_FRAME`` 1."""
+    true_fg = gbuffers.silhouette_depth(gt)
+    if not true_fg.any():
+        return {EMPTY_FRAME: 1.0}
     out = {}
     for name, channels in gbuffers.LAYOUT.items():
         a, b = pred[None, channels].double(), gt[None, channels].double()
         out[f"l1_{name}"] = float(metrics.l1(a, b))
         out[f"ssim_{name}"] = float(metrics.ssim(a, b))
-    true_fg = gbuffers.silhouette_depth(gt)
     out["iou_depth"] = iou(gbuffers.silhouette_depth(pred), true_fg)
     out["iou_normal"] = iou(gbuffers.silhouette_normal(pred), gbuffers.silhouette_normal(gt))
-    if true_fg.any():
-        span = scenes.MAX_DEPTH - scenes.MIN_DEPTH
-        depth_pred, depth_gt = pred[gbuffers.DEPTH][0], gt[gbuffers.DEPTH][0]
-        out["depth_error_world"] = float(
-            (depth_pred[true_fg] - depth_gt[true_fg]).abs().mean() * span
-        )
-        angles = normal_angles(pred, gt, true_fg)
-        out["normal_error_mean_deg"] = float(angles.mean())
-        out["normal_error_median_deg"] = float(angles.median())
+    span = scenes.MAX_DEPTH - scenes.MIN_DEPTH
+    depth_pred, depth_gt = pred[gbuffers.DEPTH][0], gt[gbuffers.DEPTH][0]
+    out["depth_error_world"] = float((depth_pred[true_fg] - depth_gt[true_fg]).abs().mean() * span)
+    angles = normal_angles(pred, gt, true_fg)
+    out["normal_error_mean_deg"] = float(angles.mean())
+    out["normal_error_median_deg"] = float(angles.median())
+    out[EMPTY_FRAME] = 0.0
     return out
 
 
@@ -133,9 +148,14 @@ def score_test_set(
 
 
 def mean_metrics(frame: pd.DataFrame) -> pd.DataFrame:
-    """Tidy per-model means over the examples of :func:`score_test_set`'s rows."""
+    """Tidy per-model means over the examples of :func:`score_test_set`'s rows, empty
+    frames left out (they have no scores), then per model the number of empty frames
+    (metric :data:`~neurender.metaballs.EMPTY_FRAMES`)."""
     keys = ["method", "dataset", "model", "split", "metric"]
-    return frame.groupby(keys, as_index=False, sort=False)["value"].mean()
+    empty = frame["metric"] == EMPTY_FRAME
+    means = frame[~empty].groupby(keys, as_index=False, sort=False)["value"].mean()
+    counts = frame[empty].groupby(keys, as_index=False, sort=False)["value"].sum()
+    return pd.concat([means, counts.assign(metric=EMPTY_FRAMES)], ignore_index=True)
 
 
 def budget_rows(checkpoints: dict[str, str]) -> pd.DataFrame:
@@ -147,7 +167,8 @@ def budget_rows(checkpoints: dict[str, str]) -> pd.DataFrame:
 
 
 def binned(frame: pd.DataFrame, column: str, edges: list[float]) -> pd.DataFrame:
-    """Mean of each metric per model in bins of ``column`` (e.g. balls, depth separation)."""
+    """Mean of each metric per model in bins of ``column`` (e.g. balls, depth separation);
+    of :data:`~neurender.metaballs.EMPTY_FRAME`, the share of empty frames."""
     bins = pd.cut(frame[column], edges, include_lowest=True)
     return (
         frame.assign(bin=bins.astype(str))

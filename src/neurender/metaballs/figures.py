@@ -8,6 +8,7 @@ Images are tensors ``(C, W, W)`` in [0, 1] (G-buffer stacks as
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -168,7 +169,8 @@ def user_scenes_figure(shown: dict[str, Showcase], models: list[str], path: str)
         for model in models:
             pred = show.predictions[model]
             iou = evaluate.iou(gbuffers.silhouette_normal(pred), gbuffers.silhouette_normal(gt))
-            panels.append((_hwc(pred[gbuffers.NORMAL]), f"{model} (IoU {iou:.2f})"))
+            score = "nothing in view" if math.isnan(iou) else f"IoU {iou:.2f}"
+            panels.append((_hwc(pred[gbuffers.NORMAL]), f"{model} ({score})"))
         for ax, (img, title) in zip(row, panels, strict=True):
             ax.imshow(np.clip(img, 0, 1))
             # The scene label is the user's text as written: "$x$" is not math to typeset.

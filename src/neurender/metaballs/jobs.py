@@ -185,7 +185,9 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
 def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The user's scenes (``scenes``, a CSV of balls) rendered by every variant
     (``checkpoints`` in the order of :data:`VARIANTS`), the sphere baselines and the ray
-    marcher at width ``width``: the test set's metrics per scene and the figure."""
+    marcher at width ``width``: the test set's metrics per scene and the figure. A scene
+    whose surface holds the camera is refused as the file is read; an empty frame or one
+    the near plane cuts is warned about (:func:`neurender.metaballs.user_scenes.view_notes`)."""
     balls = scene_file.read_user_scenes(inputs["scenes"])
     for note in user_scenes.outside_training(balls):
         log.warning("%s: %s", inputs["scenes"], note)
@@ -193,6 +195,8 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     frame, shown = user_scenes.score_user_scenes(
         user_scenes.to_scenes(balls), renderers, params["width"]
     )
+    for note in user_scenes.view_notes(frame):
+        log.warning("%s: %s", inputs["scenes"], note)
     io.write_csv(outputs["table"], frame)
     figures.user_scenes_figure(shown, list(VARIANTS), outputs["figure"])
 

@@ -14,7 +14,7 @@ import math
 
 import pandas as pd
 
-from neurender.metaballs import REFINED_BASELINE
+from neurender.metaballs import EMPTY_FRAMES, REFINED_BASELINE
 from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
 
 #: Image width from which the paper-scale thresholds apply (the thesis used 512).
@@ -27,6 +27,8 @@ BASELINE_SUFFIX = " spheres"
 STRONGEST_BASELINE_METRICS = ("iou_depth", "normal_error_mean_deg")
 #: Rows of the metrics table that state a network's training budget, not a score.
 BUDGET_METRICS = {"epochs"}
+#: Rows of the metrics table that are no score: the budget and the count of empty frames.
+NOT_SCORES = BUDGET_METRICS | {EMPTY_FRAMES}
 #: Metric prefixes where lower is better (the rest: higher is better).
 LOWER_IS_BETTER = ("l1_", "depth_error", "normal_error")
 
@@ -61,7 +63,7 @@ def accuracy_targets(metrics: pd.DataFrame, width: int) -> list[Target]:
             Target(model, f"silhouette IoU (depth) >= {iou_min:g}", iou, iou >= iou_min),
             Target(model, f"mean normal error <= {angle_max:g} deg", angle, angle <= angle_max),
         ]
-        scores = set(metrics["metric"]) - BUDGET_METRICS
+        scores = set(metrics["metric"]) - NOT_SCORES
         for metric in sorted(scores):
             ours = lookup(metrics, model=model, metric=metric)
             base = lookup(metrics, model=BASELINE, metric=metric)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from neurender.asset_files import TRIMESH_SUFFIXES, VTK_SUFFIXES
 from neurender.ndr.variants import VARIANTS
-from neurender.user_paths import files_of, with_suffix
+from neurender.user_paths import files_of, is_note, with_suffix
 
 #: Mesh files ``ndr.user_objects`` may name: trimesh's formats and PyVista's VTK ones.
 MESH_SUFFIXES = TRIMESH_SUFFIXES + VTK_SUFFIXES
@@ -49,12 +49,62 @@ CALIBRATION_SAMPLES = 16
 DIFFUSE_VARIANTS = tuple(name for name, v in VARIANTS.items() if v.data == "diffuse")
 
 
+#: HDR maps as downloaded that Mitsuba (installed with neurender) converts to OpenEXR:
+#: Radiance RGBE and PFM (``mitsuba.Bitmap(path).write(...)``); the example command of
+#: :func:`user_probes_problem` names the first such file found.
+_MITSUBA_CONVERTS = (".hdr", ".rgbe", ".pic", ".pfm")
+
+
 def user_probe_files(folder: str | Path) -> list[Path]:
     """The lat-long maps of ``ndr.user_probes_dir``: the folder's visible ``.exr`` files,
     the suffix in any case (``B.EXR``), sorted by name; none when it is not a folder."""
     if not Path(folder).is_dir():
         return []
     return with_suffix(files_of(str(folder)), (".exr",))
+
+
+def user_probe_strays(folder: str | Path) -> list[Path]:
+    """The visible files of ``ndr.user_probes_dir`` that are neither maps
+    (:func:`user_probe_files`) nor notes (:func:`neurender.user_paths.is_note`), sorted
+    by name: maps in other formats (``.hdr``, ``.jpg`` previews) that would be left out
+    unsaid; none when it is not a folder."""
+    if not Path(folder).is_dir():
+        return []
+    maps = set(user_probe_files(folder))
+    return [p for p in files_of(str(folder)) if p not in maps and not is_note(p)]
+
+
+def user_probes_problem(folder: str | Path) -> str | None:
+    """Why ``ndr.user_probes_dir = folder`` cannot be used, as a message naming the key,
+    the folder and the files at fault; ``None`` for a folder holding ``.exr`` maps and at
+    most hidden files and notes besides (:func:`user_probe_strays`)."""
+    strays = user_probe_strays(folder)
+    if strays:
+        shown = ", ".join(p.name for p in strays[:10])
+        more = f" and {len(strays) - 10} more" if len(strays) > 10 else ""
+        none = "" if user_probe_files(folder) else " and no .exr map"
+        what = (
+            f"{len(strays)} files that are not OpenEXR maps"
+            if len(strays) > 1
+            else "a file that is not an OpenEXR map"
+        )
+        hdr = [p for p in strays if p.suffix.lower() in _MITSUBA_CONVERTS]
+        example = hdr[0].name if hdr else "map.hdr"
+        return (
+            f"ndr.user_probes_dir = {str(folder)!r}: holds {what} ({shown}{more}){none}; "
+            "the workflow reads only *.exr lat-long maps and would leave them out. Convert "
+            'HDR maps (.hdr, .pfm, .tif) to OpenEXR lat-long, e.g. python -c "import '
+            f"mitsuba; mitsuba.Bitmap('{example}').write('{Path(example).stem}.exr')\" "
+            "(Mitsuba reads .hdr and .pfm), and move other files (LDR previews such as .jpg "
+            "or .png are no radiance maps) out of the "
+            "folder; beside the maps it may hold only hidden files and notes (README, "
+            "LICENSE, *.txt, *.md)"
+        )
+    if not user_probe_files(folder):
+        return (
+            f"ndr.user_probes_dir = {str(folder)!r}: expected a folder holding *.exr lat-long maps"
+        )
+    return None
 
 
 def split_kind(split: str) -> tuple[str, str]:

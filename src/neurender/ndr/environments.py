@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from neurender import lights, sh
-from neurender.ndr import user_probe_files
+from neurender.ndr import user_probe_files, user_probe_strays, user_probes_problem
 
 SH_BANDS = 5
 SH_FEATURES = SH_BANDS**2 * 3
@@ -182,10 +182,19 @@ def sh_features(image: np.ndarray) -> np.ndarray:
 def user_probes(folder: str | Path) -> list[Path]:
     """The lat-long maps in ``folder`` (:func:`neurender.ndr.user_probe_files`: ``.exr``
     in any case, sorted), each checked by :func:`neurender.lights.load_probe` when used
-    (:func:`check_user_probes` checks all)."""
+    (:func:`check_user_probes` checks all).
+
+    Raises:
+        FileNotFoundError: for a path that is no folder, or a folder without maps.
+        ValueError: for a folder that holds other files than maps and notes, such as
+            ``.hdr`` maps (:func:`neurender.ndr.user_probes_problem`; the config check
+            refuses them too, but not in a folder the workflow makes).
+    """
     path = Path(folder)
     if not path.is_dir():
         raise FileNotFoundError(f"ndr.user_probes_dir {path} is not a folder of EXR maps")
+    if user_probe_strays(path):
+        raise ValueError(user_probes_problem(path))
     found = user_probe_files(path)
     if not found:
         raise FileNotFoundError(f"ndr.user_probes_dir {path} holds no *.exr lat-long maps")
@@ -195,10 +204,11 @@ def user_probes(folder: str | Path) -> list[Path]:
 @functools.lru_cache(maxsize=64)
 def user_map(path: Path, height: int) -> np.ndarray:
     """A user map resized to ``height`` rows (:func:`neurender.lights.load_probe`: negative
-    values clamped with one warning, NaN, infinities and wrong shapes refused naming the
-    file). Cached, so a process (and the processes it forks) warns once per map; treat the
-    result as read-only."""
-    return resize_latlong(lights.load_probe(path), height)
+    values clamped with one warning, NaN, infinities, wrong shapes and maps without
+    positive radiance refused naming the file and ``ndr.user_probes_dir``). Cached, so a
+    process (and the processes it forks) warns once per map; treat the result as
+    read-only."""
+    return resize_latlong(lights.load_probe(path, "ndr.user_probes_dir"), height)
 
 
 def check_user_probes(folder: str | Path, height: int) -> list[Path]:

@@ -7,19 +7,18 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
-from neurender import asset_files, checks, io
+from neurender import checks, io
 from neurender.method import Method, ReportInputs, Rule, Study, Units, unet_work
 from neurender.ndr import (
     CALIBRATION_SAMPLES,
     DIFFUSE_VARIANTS,
     EQUAL_QUALITY_REPEATS,
     MESH_SUFFIXES,
-    user_probe_files,
+    user_probes_problem,
 )
-from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
+from neurender.user_paths import UserPath, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
 STAGE = "NDR"
@@ -64,23 +63,13 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             f"ndr.samples.test = {ndr['samples']['test']}"
         )
     folder = ndr["user_probes_dir"]
-    if folder and not made_by_the_workflow(folder) and not user_probe_files(folder):
-        yield f"ndr.user_probes_dir = {folder!r}: expected a folder holding *.exr lat-long maps"
+    if folder and not made_by_the_workflow(folder):
+        if (problem := user_probes_problem(folder)) is not None:
+            yield problem
     for name, path in ndr["user_objects"].items():
-        if made_by_the_workflow(path):
-            continue
-        if Path(path).suffix.lower() not in MESH_SUFFIXES:
-            yield (
-                f"ndr.user_objects entry {name!r}: {path} is not a mesh file NDR reads "
-                f"({', '.join(MESH_SUFFIXES)})"
-            )
-        elif file_problem(path):
-            yield f"ndr.user_objects entry {name!r}: file {path} {file_problem(path)}"
-        else:
-            yield from (
-                f"ndr.user_objects entry {name!r}: {problem}"
-                for problem in asset_files.missing(path)
-            )
+        yield from checks.user_file(
+            f"ndr.user_objects.{name}", path, MESH_SUFFIXES, "a mesh file NDR reads", named=True
+        )
 
 
 def _coarse_samples(ndr: Mapping[str, Any]) -> int:

@@ -42,6 +42,14 @@ RESERVED = (*OBJECTS, "plane", *EXPERIMENTS)
 #: by PyVista with VTK's readers (``VTK_SUFFIXES``).
 MESH_SUFFIXES = (".obj", ".ply", ".off", ".stl", ".glb", ".gltf")
 VTK_SUFFIXES = (".vtk", ".vtp", ".vtu")
+#: The fewest vertices a mesh the geometry image maps can have: the boundary loop of its
+#: disk is pinned to the square's four corners (:mod:`neurender.prt.geometry_image`).
+MIN_VERTICES = 4
+#: What a user mesh (or an animation's rest frame) must be, for messages.
+DISK_EXPECTED = (
+    "expected one connected surface (a disk, or cut to one) with a boundary loop of at "
+    f"least {MIN_VERTICES} vertices, which the geometry image pins to the square's corners"
+)
 
 
 def _natural_key(path: Path) -> tuple:
@@ -96,15 +104,27 @@ def overlap_problems(key: str, frames: list[Path], test_frames: list[Path]) -> I
             )
 
 
+def too_small(path: str | Path) -> int | None:
+    """The vertex count ``path``'s header declares when it is below :data:`MIN_VERTICES`
+    (a single triangle), else ``None`` (:func:`neurender.mesh_header.vertex_count`: OBJ,
+    PLY, OFF; other formats are checked when the mesh is mapped)."""
+    count = vertex_count(path)
+    return count if count is not None and count < MIN_VERTICES else None
+
+
 def vertex_count_problems(key: str, files: list[Path]) -> Iterator[str]:
-    """The first frame whose header declares another vertex count than the rest frame
-    (``files[0]``; :func:`neurender.mesh_header.vertex_count`: OBJ, PLY, OFF; other
-    formats are checked when the frames are read)."""
+    """A rest frame (``files[0]``) with too few vertices to map (:func:`too_small`), or the
+    first frame whose header declares another vertex count than the rest frame
+    (:func:`neurender.mesh_header.vertex_count`: OBJ, PLY, OFF; other formats are checked
+    when the frames are read)."""
     counts = [(p, vertex_count(p)) for p in files]
     known = [(p, n) for p, n in counts if n is not None]
     if not known or files[0] != known[0][0]:
         return
     rest, expected = known[0]
+    if expected < MIN_VERTICES:
+        yield f"{key}: the rest frame {rest} has {expected} vertices; {DISK_EXPECTED}"
+        return
     for p, n in known[1:]:
         if n != expected:
             yield (

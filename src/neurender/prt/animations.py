@@ -11,6 +11,12 @@ in every frame. Positions are in the files' units.
 The first frame is the rest pose that is parametrised (:mod:`neurender.prt.disk`,
 :mod:`neurender.prt.geometry_image`); without separate test frames the last
 ``test_fraction`` of the sequence is held out (extrapolation in time).
+
+A frame whose vertices were written in another order has the same counts and triangles
+but joins other surface points: its edges (each pair of vertices a triangle joins) run
+across the shape. Every frame's edge lengths are compared with the rest frame's
+(:func:`edge_changes`), and a frame where many changed by a large factor is refused
+(:data:`EDGE_FACTOR`, :data:`EDGE_SHARE`).
 """
 
 from __future__ import annotations
@@ -21,7 +27,19 @@ from pathlib import Path
 import numpy as np
 
 from neurender.prt import mesh_files
+from neurender.prt.disk import bbox_diagonal, edges_of
 from neurender.prt.objects import read_mesh
+
+#: An edge changed implausibly when its length in a frame is more than this factor longer
+#: or shorter than in the rest frame, taken as is and relative to the change of the
+#: frame's size (bounding-box diagonal), so a frame scaled as a whole or crumpled is not
+#: counted. The built-in animations and the example sequences (results/examples) change
+#: none by 4 (at most 2.8 x), the unseen-deformation families at strength 1 at most 0.3 %
+#: of the edges of a geometry image's grid; vertices in another order change about 90 %.
+EDGE_FACTOR = 4.0
+#: A frame with more than this share of its edges changed by :data:`EDGE_FACTOR` is refused
+#: (a mesh with a tenth of its vertices reordered changes about 18 %).
+EDGE_SHARE = 0.1
 
 
 @dataclasses.dataclass
@@ -52,13 +70,16 @@ def load_frames(
 
     Raises:
         ValueError naming the first file whose vertex or triangle count, or triangles,
-        differ from the rest frame's, with both counts.
+        differ from the rest frame's, with both counts, or whose edges changed length
+        implausibly (:func:`edge_changes`: vertices in another order), with its position
+        in ``files``.
     """
     if not files:
         raise ValueError(f"{what}: no mesh files found")
     positions = []
     ref_file, ref_vertices, ref_faces = reference or (files[0], *read_mesh(files[0]))
-    for path in files:
+    edges = np.unique(np.sort(edges_of(ref_faces), axis=1), axis=0)
+    for index, path in enumerate(files):
         vertices, faces = (ref_vertices, ref_faces) if path == ref_file else read_mesh(path)
         if len(vertices) != len(ref_vertices) or len(faces) != len(ref_faces):
             raise ValueError(
@@ -76,8 +97,36 @@ def load_frames(
                 f"vertices (the first is triangle {differ[0]}); every frame needs the same "
                 "triangles"
             )
+        changes = np.abs(edge_changes(ref_vertices, vertices, edges))
+        share = float(np.mean(changes > np.log(EDGE_FACTOR))) if len(changes) else 0.0
+        if share > EDGE_SHARE:
+            raise ValueError(
+                f"{what}: frame {index + 1} of {len(files)}, {path}, has the triangles of the "
+                f"rest frame {ref_file}, but {share:.0%} of its {len(changes)} edges are more "
+                f"than {EDGE_FACTOR:g} times longer or shorter than there (median factor "
+                f"{np.exp(np.median(changes)):.1f}); expected the same vertices in the same "
+                "order as the rest frame, deformed (vertices written in another order join "
+                "other surface points: export every frame from one mesh as a mesh sequence, "
+                "keeping the vertex order)"
+            )
         positions.append(vertices)
     return Frames(list(files), np.stack(positions), ref_faces)
+
+
+def edge_changes(rest: np.ndarray, frame: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """How much each edge's length changed from ``rest`` to ``frame`` (``(V, 3)`` positions
+    of the same vertices), as ``(E,)`` natural logs of the length ratio for ``edges``
+    ``(E, 2)``: of the two readings, as is and relative to the change of the bounding-box
+    diagonal, the one nearer 0 (a frame scaled as a whole changes no edge). Edges of zero
+    length in the rest frame are left out; one collapsed in ``frame`` counts as a change
+    by a factor 1e12."""
+    size = bbox_diagonal(rest)
+    before = np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)
+    after = np.linalg.norm(frame[edges[:, 0]] - frame[edges[:, 1]], axis=1)
+    kept = before > 1e-12 * size
+    raw = np.log(np.maximum(after[kept], 1e-12 * before[kept]) / before[kept])
+    scaled = raw - np.log(max(bbox_diagonal(frame), 1e-12 * size) / size)
+    return np.where(np.abs(raw) < np.abs(scaled), raw, scaled)
 
 
 def load_sequence(

@@ -40,10 +40,11 @@ def split_frames(inputs: dict, seq: dict, split: str, n_bands: int) -> frames.Sp
 
 
 def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """A light probe (built in, or the user's EXR ``source``) and its SH projection."""
+    """A light probe (built in, or the user's EXR ``source``, ``prt.user_probes.<probe>``)
+    and its SH projection."""
     source = inputs.get("source")
     image = (
-        lights.load_probe(source)
+        lights.load_probe(source, f"prt.user_probes.{params['probe']}")
         if source
         else lights.procedural_probe(params["probe"], params["probe_height"])
     )
@@ -71,8 +72,10 @@ def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) 
         mesh, kind = SourceMesh(sequence.positions[0], sequence.faces), "user_sequence"
         label = str(sequence.files[0])
         counts = {"frames": len(sequence.files), "test_frames": len(test.files) if test else 0}
+        objects.check_placement(mesh.vertices, f"{label} (prt.user_sequences.{name})")
     elif "source" in inputs:
         mesh, label, kind = objects.load_user_mesh(inputs["source"]), inputs["source"], "user"
+        objects.check_placement(mesh.vertices, f"{label} (prt.user_meshes.{name})")
     else:
         mesh, label, kind = objects.source_mesh(name, params["source_vertices"], seed), name, name
     # The plane shares the head's map so S_lin = a S_head + (1 - a) S_plane keeps pixels aligned.

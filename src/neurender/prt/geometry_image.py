@@ -102,7 +102,10 @@ def perimeter_points(
         ``(L, 2)`` points on the perimeter, in loop order.
     """
     if len(loop) < 4:
-        raise ValueError(f"boundary loop has {len(loop)} vertices; a square needs at least 4")
+        raise ValueError(
+            f"the boundary loop has {len(loop)} vertices; expected at least 4, one per corner "
+            "of the square it is pinned to (a single triangle has 3; a quad of two has 4)"
+        )
     seg = np.linalg.norm(vertices[np.roll(loop, -1)] - vertices[loop], axis=1)
     s = np.concatenate([[0.0], np.cumsum(seg)])  # arc length at each loop vertex, then the total
     if uniform_share:
@@ -410,8 +413,16 @@ def parametrise(
     lookup expressed in the input's triangles, so :meth:`GeometryImage.resample` with
     ``faces`` resamples any per-vertex quantity of the input mesh (every frame of an
     animation). ``uv`` holds the disk's vertices (seam vertices twice).
+
+    Raises:
+        ValueError: naming ``name`` (the mesh's file or object), for a surface
+            :func:`neurender.prt.disk.to_disk` refuses or a disk too small to map (a
+            boundary loop of fewer than 4 vertices: a single triangle).
     """
     disk = to_disk(vertices, faces, name)
-    gim = build_geometry_image(disk.vertices, disk.faces, n, disk.anchors)
+    try:
+        gim = build_geometry_image(disk.vertices, disk.faces, n, disk.anchors)
+    except ValueError as err:  # the map's own messages do not know the mesh's file
+        raise ValueError(f"mesh {name}: {err}") from err
     gim.face, gim.bary = disk.lift(gim.face, gim.bary)
     return gim, disk

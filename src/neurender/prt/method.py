@@ -12,8 +12,17 @@ from typing import Any
 from neurender import checks
 from neurender.lights import BUILTIN_PROBES
 from neurender.method import Method, ReportInputs, Rule, Study, Units, unet_work
-from neurender.prt import EXPERIMENTS, OBJECTS, RESERVED, user_sequence_problems
-from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
+from neurender.prt import (
+    DISK_EXPECTED,
+    EXPERIMENTS,
+    MESH_SUFFIXES,
+    OBJECTS,
+    RESERVED,
+    VTK_SUFFIXES,
+    too_small,
+    user_sequence_problems,
+)
+from neurender.user_paths import UserPath, made_by_the_workflow
 
 #: The plan's stages: the ground truth (data, transfer, figures) and the learned models.
 DATA, MODELS = "DeepPRT data", "DeepPRT models"
@@ -30,12 +39,16 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
     meshes, sequences = prt["user_meshes"], prt["user_sequences"]
     yield from checks.known(prt["objects"], OBJECTS, {**meshes, **sequences}, "prt.objects")
     for name in sorted(set(meshes) & set(sequences)):
-        yield f"prt user object {name!r} is both in prt.user_meshes and in prt.user_sequences"
-    for name in sorted((set(meshes) | set(sequences)) & set(RESERVED)):
         yield (
-            f"prt user object {name!r}: the name of a built-in dataset; expected another name "
-            f"(reserved: {', '.join(RESERVED)})"
+            f"prt.user_meshes.{name} and prt.user_sequences.{name}: one name for two user "
+            "objects; expected each name in one of them"
         )
+    for section, entries in (("user_meshes", meshes), ("user_sequences", sequences)):
+        for name in sorted(set(entries) & set(RESERVED)):
+            yield (
+                f"prt.{section}.{name}: the name of a built-in dataset; expected another "
+                f"name (reserved: {', '.join(RESERVED)})"
+            )
     for name, entry in sequences.items():
         yield from user_sequence_problems(name, entry, made_by_the_workflow)
     yield from checks.known(prt["probes"], BUILTIN_PROBES, prt["user_probes"], "prt.probes")
@@ -61,9 +74,17 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
     yield from checks.halvable(
         prt["resolution"], model["widths"], "prt.resolution", "prt_model.widths"
     )
-    for name, path in {**prt["user_meshes"], **prt["user_probes"]}.items():
-        if not made_by_the_workflow(path) and file_problem(path):
-            yield f"prt user entry {name!r}: file {path} {file_problem(path)}"
+    for name, path in meshes.items():
+        key = f"prt.user_meshes.{name}"
+        found = list(checks.user_file(key, path, MESH_SUFFIXES + VTK_SUFFIXES, "a mesh file"))
+        yield from found
+        count = None if found or made_by_the_workflow(path) else too_small(path)
+        if count is not None:
+            yield f"{key} = {path!r}: {count} vertices; {DISK_EXPECTED}"
+    for name, path in prt["user_probes"].items():
+        yield from checks.user_file(
+            f"prt.user_probes.{name}", path, (".exr",), "a lat-long EXR light probe"
+        )
 
 
 def _transfer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:

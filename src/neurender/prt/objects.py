@@ -12,11 +12,14 @@ protrusions), deterministic from a seed, in world units with the object facing +
 
 User meshes (``prt.user_meshes``, and every frame of ``prt.user_sequences``) are read as
 stored (:func:`read_mesh`): any single connected surface, open or closed, of any genus;
-:mod:`neurender.prt.disk` makes it a disk.
+:mod:`neurender.prt.disk` makes it a disk. Positions stay in the file's place and units,
+in float32 from the geometry image on: :func:`check_placement` warns about a mesh so far
+from the origin (georeferenced coordinates) that float32 rounds away its shape.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import igl
@@ -25,8 +28,15 @@ import scipy.spatial
 import trimesh
 
 from neurender import mesh_file
+from neurender.geometry import float32_rounding
 from neurender.prt import MESH_SUFFIXES, VTK_SUFFIXES
 from neurender.shapes import SourceMesh, disk_mesh, gauss, head_mesh
+
+log = logging.getLogger(__name__)
+
+#: Largest float32 rounding of a user mesh's positions, as a fraction of its size, that
+#: :func:`check_placement` lets pass (a 2 m mesh about 5 km from the origin).
+FLOAT32_TOLERANCE = 1e-4
 
 
 def plane_mesh(n_vertices: int, rng: np.random.Generator) -> SourceMesh:
@@ -102,20 +112,46 @@ def check_disk_topology(vertices: np.ndarray, faces: np.ndarray, name: str) -> N
 
 def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Vertices ``(V, 3)`` float64 and triangles ``(F, 3)`` int64 of a mesh file as stored,
-    every mesh of the file together (:func:`neurender.mesh_file.read`, geometry only).
+    every mesh of the file together (:func:`neurender.mesh_file.read`, geometry only,
+    without the vertices no triangle uses, in the file's winding).
 
     Raises:
         AssetFileError: naming the file: an unknown format, no such file, an unreadable
             file, no triangles, face indices out of range, non-finite positions, a
             degenerate bounding box.
     """
-    return mesh_file.read(path, MESH_SUFFIXES + VTK_SUFFIXES, materials=False).merged()
+    # The winding as stored: the geometry-image job orients the rest frame once
+    # (:func:`neurender.prt.disk.orient`) and carries it to every frame, where orienting
+    # each frame file on its own could wind frames differently.
+    return mesh_file.read(
+        path, MESH_SUFFIXES + VTK_SUFFIXES, materials=False, orient=False
+    ).merged()
 
 
 def load_user_mesh(path: str | Path) -> SourceMesh:
     """A user's mesh file as stored (:func:`read_mesh`); the geometry-image job welds,
     checks and cuts it into a disk (:func:`neurender.prt.disk.to_disk`)."""
     return SourceMesh(*read_mesh(path))
+
+
+def check_placement(vertices: np.ndarray, where: str) -> None:
+    """Warn, naming ``where`` (the file and its config key), where float32, in which DeepPRT
+    keeps positions from the geometry image on (the ``rest`` geometry image, ray-traced
+    transfer, the network's P input, the report's viewer), rounds ``vertices (V, 3)`` by
+    more than :data:`FLOAT32_TOLERANCE` of their bounding box's longest side."""
+    rounding = float32_rounding(vertices)
+    if rounding > FLOAT32_TOLERANCE:
+        far, side = float(np.abs(vertices).max()), float(np.ptp(vertices, axis=0).max())
+        log.warning(
+            "%s: a coordinate of %.6g, %.3g times the mesh's size (%.3g); DeepPRT keeps "
+            "positions in float32, which rounds them by up to %.2g%% of that size: move the "
+            "mesh near the origin in the file (subtract its centre) to keep its shape",
+            where,
+            far,
+            far / side,
+            side,
+            100 * rounding,
+        )
 
 
 def source_mesh(name: str, n_vertices: int, seed: int) -> SourceMesh:

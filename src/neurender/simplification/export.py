@@ -27,6 +27,13 @@ small difference between this averaging and MikkTSpace's. Texels outside every c
 the frame of the nearest covered texel, so the conversion is exactly invertible
 (:func:`to_mitsuba_normals`) and a re-import reproduces the map up to 8-bit quantisation.
 
+Placement. Both files hold the asset where the asset file had it. The GLB's node
+``translation`` (float64 in the JSON) carries a round point near the asset's centre and
+``POSITION`` the float32 offsets from it (:mod:`neurender.gltf`), and the OBJ's ``v`` have
+as many significant digits as the distance from the origin needs (:func:`position_digits`),
+so an asset in georeferenced coordinates (x ~ 5e5 m, y ~ 5e6 m) reads back to about 1e-7
+of its size, like one about the origin.
+
 OBJ + MTL: the same vertices, ``vt = (u, 1 - v)`` (OBJ counts ``v`` up), ``vn``;
 ``map_Kd`` the same sRGB base-colour PNG, ``norm`` the same normal map (OBJ has no
 tangents: a reader computes its own, MikkTSpace in most tools).
@@ -150,10 +157,11 @@ def atlas_primitive(
     to_asset: np.ndarray,
 ) -> gltf.Primitive:
     """The glTF primitive of the atlas mesh at welded ``positions (V, 3)`` (stage frame),
-    moved by ``to_asset (4, 4)``: welded-mesh normals, and with a ``(T, T, 3)`` linear
-    ``albedo`` map (sRGB base-colour texture; a number is a uniform ``baseColorFactor``)
-    and a ``normal_map`` in Mitsuba's tangent frame (re-expressed in glTF's, with the
-    tangents; None: no normal texture); maps in [0, 1], row 0 at ``v = 0``."""
+    moved by ``to_asset (4, 4)`` (float64, in the asset's units and place; the GLB writer
+    stores them relative to its node's translation): welded-mesh normals, and with a
+    ``(T, T, 3)`` linear ``albedo`` map (sRGB base-colour texture; a number is a uniform
+    ``baseColorFactor``) and a ``normal_map`` in Mitsuba's tangent frame (re-expressed in
+    glTF's, with the tangents; None: no normal texture); maps in [0, 1], row 0 at ``v = 0``."""
     atlas = low.atlas_positions(positions)
     normals = low.atlas_normals(positions)
     world = atlas @ to_asset[:3, :3].T + to_asset[:3, 3]
@@ -171,6 +179,18 @@ def atlas_primitive(
     return primitive
 
 
+def position_digits(positions: np.ndarray) -> int:
+    """Significant digits that write every coordinate of ``positions (N, 3)`` to 1e-9 of
+    their bounding box's longest side: 9 (float32's round trip, enough about the origin)
+    plus the decimal orders by which the farthest coordinate exceeds that side, at most 17
+    (float64's round trip)."""
+    side = float(np.ptp(positions, axis=0).max())
+    far = float(np.abs(positions).max())
+    if not side > 0:
+        return 17
+    return int(min(17, 9 + max(0, np.ceil(np.log10(far / side)))))
+
+
 def obj_text(
     positions: np.ndarray,
     normals: np.ndarray,
@@ -179,13 +199,15 @@ def obj_text(
     mtl: str,
     name: str,
 ) -> str:
-    """OBJ text of a textured mesh (one index per corner for ``v``, ``vt`` and ``vn``)."""
+    """OBJ text of a textured mesh (one index per corner for ``v``, ``vt`` and ``vn``),
+    positions with :func:`position_digits` significant digits."""
     lines = [
         "# neurender appearance-driven simplification",
         f"mtllib {mtl}",
         f"o {name}",
     ]
-    lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in positions]
+    d = position_digits(positions)
+    lines += [f"v {x:.{d}g} {y:.{d}g} {z:.{d}g}" for x, y, z in positions]
     lines += [f"vt {u:.9g} {1.0 - v:.9g}" for u, v in uvs]
     lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in normals]
     lines.append(f"usemtl {name}")

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
-from neurender import asset_files
+from neurender import asset_files, checks
 from neurender.method import Method, ReportInputs, Rule, Units
 from neurender.simplification import CASES, VARIANTS
-from neurender.user_paths import UserPath, file_problem, made_by_the_workflow
+from neurender.user_paths import UserPath
 
 STAGE = "simplification"
 
@@ -32,17 +31,9 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
         path = entry["path"]
         if name in CASES:
             yield f"{key}: the name of a built-in case ({', '.join(CASES)}); pick another"
-        if Path(path).suffix.lower() not in asset_files.TRIMESH_SUFFIXES:
-            suffixes = ", ".join(asset_files.TRIMESH_SUFFIXES)
-            yield f"{key}.path = {path!r}: expected a mesh file ({suffixes})"
-        elif made_by_the_workflow(path):
-            continue
-        elif file_problem(path):
-            yield f"{key}.path = {path!r}: file {file_problem(path)}"
-        else:
-            yield from (
-                f"{key}.path = {path!r}: {problem}" for problem in asset_files.missing(path)
-            )
+        yield from checks.user_file(
+            f"{key}.path", path, asset_files.TRIMESH_SUFFIXES, "a mesh file", named=True
+        )
 
 
 def _detail(s: Mapping[str, Any]) -> float:
