@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -102,13 +103,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--time", type=Path, help="/usr/bin/time -v's report on the run")
     parser.add_argument("--command", default="", help="the command the run was started with")
     parser.add_argument("--cores", type=int, default=None, help="the cores it was given")
+    argv = sys.argv[1:] if argv is None else argv
     args = parser.parse_args(argv)
 
     rows = job_rows(args.results)
     io.write_csv(f"{args.out}.csv", rows)
     sidecar = {
         "command": args.command,
-        "profile_command": " ".join(["python", "benchmarks/run_profile.py", *(argv or [])]),
+        "profile_command": " ".join(["python", "benchmarks/run_profile.py", *argv]),
         **git_state(args.results.resolve().parent),
         "machine": machine(args.cores),
     }
