@@ -115,6 +115,8 @@ class Study:
         values: the numeric column shown in the cells; rows that share ``index`` and
             ``columns`` values (seeds, frames, strengths) are averaged.
         digits: significant digits of the cells.
+        figures: committed figures of the study (PNG paths relative to the repository
+            root), shown under its table.
     """
 
     csv: str
@@ -125,8 +127,12 @@ class Study:
     columns: tuple[str, ...] = ()
     values: str = "value"
     digits: int = 4
+    figures: tuple[str, ...] = ()
 
     def __post_init__(self):
+        bad = [f for f in self.figures if not f.endswith(".png")]
+        if bad:
+            raise ValueError(f"study {self.csv}: figures {bad} must be PNG files")
         if not self.index:
             raise ValueError(f"study {self.csv}: index is empty; expected at least one column")
         if not self.csv.endswith(".csv"):

@@ -3,6 +3,8 @@ import torch
 
 from neurender.metaball import Scene
 
+from .keys import THESIS_SCENES
+
 
 @pytest.fixture
 def make_scene():
@@ -26,7 +28,7 @@ def write_split(tmp_path):
     from neurender.metaballs import jobs
 
     def write(split: str, count: int) -> dict:
-        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2]}
+        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
         params |= {"split": split, "examples": count}
         outputs = {
             "examples": str(tmp_path / split),

@@ -8,7 +8,9 @@ from neurender import io
 from neurender.metaball import Scene
 from neurender.metaballs import ab, data
 
-CFG = {"seed": 3, "width": 16, "balls": [2, 5], "radius": [1.0, 2.0]}
+from .keys import THESIS_SCENES
+
+CFG = {"seed": 3, "width": 16, "balls": [2, 5], "radius": [1.0, 2.0], **THESIS_SCENES}
 
 
 def test_generate_split_is_the_same_for_any_number_of_workers(tmp_path):

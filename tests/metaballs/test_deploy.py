@@ -11,6 +11,8 @@ from neurender.metaballs.renderer import MetaballRenderer
 from neurender.nn.inference import OnnxNetwork
 from neurender.nn.unet import count_parameters
 
+from .keys import KERNEL, THESIS_SCENES
+
 WIDTH = 32
 
 
@@ -20,7 +22,7 @@ def deployed(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("metaballs_deploy")
     files = {}
     for split, count in (("train", 4), ("val", 2), ("test", 1)):
-        params = {"seed": 1, "width": WIDTH, "balls": [2, 4], "radius": [1, 2]}
+        params = {"seed": 1, "width": WIDTH, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
         outputs = {
             "examples": str(tmp / split),
             "manifest": str(tmp / f"{split}_manifest.csv"),
@@ -43,7 +45,7 @@ def deployed(tmp_path_factory):
         "onnx": [str(tmp / "onnx" / f"{v}.onnx") for v in VARIANTS],
         "table": str(tmp / "deployment.csv"),
     }
-    jobs.metaballs_deploy(inputs, outputs, {}, 1)
+    jobs.metaballs_deploy(inputs, outputs, KERNEL, 1)
     return inputs, outputs
 
 

@@ -7,6 +7,8 @@ import torch
 from neurender.metaballs import equal_quality as eq
 from neurender.metaballs import raymarch, scenes
 
+from .keys import KERNEL, THESIS_SCENES
+
 
 def _scenes(count=3):
     gen = torch.Generator().manual_seed(5)
@@ -126,7 +128,7 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
 
     files = {}
     for split, count in (("train", 2), ("val", 1), ("test", 2)):
-        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2]}
+        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
         outputs = {
             "examples": str(tmp_path / split),
             "manifest": str(tmp_path / f"{split}_manifest.csv"),
@@ -150,15 +152,15 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
         name: str(tmp_path / f"{name}.{ext}")
         for name, ext in (("metrics", "csv"), ("examples", "csv"), ("by_scene", "csv"))
     } | {"figure": str(tmp_path / "c.png"), "scene_figure": str(tmp_path / "s.png")}
-    jobs.metaballs_evaluate(inputs, evaluated, {"width": 32, "device": "cpu"}, 1)
+    jobs.metaballs_evaluate(inputs, evaluated, {"width": 32, "device": "cpu", **KERNEL}, 1)
     shipped = {
         "onnx": [str(tmp_path / "onnx" / f"{v}.onnx") for v in VARIANTS],
         "table": str(tmp_path / "deployment.csv"),
     }
-    jobs.metaballs_deploy(inputs, shipped, {}, 1)
+    jobs.metaballs_deploy(inputs, shipped, KERNEL, 1)
     inputs |= {"onnx": shipped["onnx"]}
     outputs = {"table": str(tmp_path / "eq.csv"), "figure": str(tmp_path / "eq.png")}
-    params = {"equal_quality_examples": 1, "width": 32, "device": "cpu"}
+    params = {"equal_quality_examples": 1, "width": 32, "device": "cpu", **KERNEL}
     jobs.metaballs_equal_quality(inputs | {"examples": evaluated["examples"]}, outputs, params, 1)
 
     table = io.read_csv(outputs["table"])

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import torch
 
-from neurender.metaball import Scene
+from neurender.metaball import Kernel, Scene
 from neurender.metaballs import evaluate, gbuffers, inputs, raymarch, scenes
 
 
@@ -219,3 +219,60 @@ def test_blocked_impostors_equal_the_first_implementation():
         assert torch.equal(new.colour, ref.colour)  # the same ball won every pixel
         same_rounding = _reference_spheres(s, width, matmul=False)
         torch.testing.assert_close(new.stack(), same_rounding.stack(), atol=0, rtol=0)
+
+
+def _whole_matrix_inflated_radii(scene):
+    """Reference: the first implementation, every pair in one ``B x B`` matrix."""
+    d2 = torch.cdist(scene.centres, scene.centres).square()
+    d2.fill_diagonal_(torch.inf)
+    others = (scene.radii.square()[None, :] / d2).sum(1)
+    return scene.radii / (1 - others).clamp(min=inputs.MIN_FIELD_GAP).sqrt()
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_inverse_square_radii_in_row_chunks_equal_the_whole_matrix(dtype):
+    for count in (3, 30, 145):
+        scene = scenes.sample_scene(count, (0.6, 1.6), torch.Generator().manual_seed(count))
+        scene = scene.to(dtype)
+        reference = _whole_matrix_inflated_radii(scene)
+        # up to PAIR_ROWS balls: one chunk, the same numbers bit for bit
+        torch.testing.assert_close(inputs.inflated_radii(scene), reference, atol=0, rtol=0)
+        for chunk in (1, 7, 64):  # cdist may round a partial block's products otherwise
+            torch.testing.assert_close(inputs.inflated_radii(scene, chunk=chunk), reference)
+
+
+FINITE = [Kernel("wyvill", 2.0), Kernel("gaussian", 2.5, 1.0)]
+
+
+@pytest.mark.parametrize("kernel", FINITE, ids=lambda k: k.name)
+def test_finite_kernel_radii_solve_the_kernel_in_the_others_field(kernel, make_scene):
+    one = make_scene([[0.5, 0.0, 15.0]], [1.3])
+    one = Scene(one.centres, one.radii, one.colours, kernel)
+    torch.testing.assert_close(inputs.inflated_radii(one), one.radii)  # exact when alone
+    # a crowded scene: every ball's field from the others by brute force, then k(x) = 1 - G
+    scene = scenes.sample_scene(60, (0.8, 2.0), torch.Generator().manual_seed(3))
+    scene = Scene(scene.centres, scene.radii, scene.colours, kernel)
+    d2 = torch.cdist(scene.centres, scene.centres).square()
+    f = kernel.value(d2 / scene.radii.square()[None, :])
+    others = f.sum(1) - f.diagonal()
+    assert (others > 0).sum() > 20 and (others > 1 - inputs.MIN_FIELD_GAP).any()
+    radii = inputs.inflated_radii(scene)
+    gap = (1 - others).clamp(min=inputs.MIN_FIELD_GAP)
+    torch.testing.assert_close(kernel.value((radii / scene.radii).square()), gap)
+    assert (radii >= scene.radii).all()
+
+
+def _dense_counts(scene, width):
+    """Reference: every ray against every sphere, how many it passes through."""
+    rays = scenes.pixel_rays(width, scene.centres.dtype).reshape(-1, 3)
+    b = rays @ scene.centres.T
+    return (b.square() - (scene.centres.square().sum(1) - scene.radii.square()) > 0).sum(1)
+
+
+def test_sphere_counts_equal_every_ray_against_every_sphere():
+    scene = scenes.sample_scene(40, (1.0, 3.0), torch.Generator().manual_seed(9))
+    counts = inputs.sphere_counts(scene, 48)
+    assert torch.equal(counts, _dense_counts(scene, 48)) and counts.max() > 2
+    behind = Scene(scene.centres, scene.radii + 30, scene.colours)
+    with pytest.raises(ValueError, match="not wholly in front of the camera"):
+        inputs.sphere_counts(behind, 16)

@@ -2,6 +2,8 @@ import pandas as pd
 
 from neurender.metaballs import speed
 
+from .keys import KERNEL
+
 
 def test_timing_table_speedup_is_at_the_most_balls():
     timings = pd.DataFrame(
@@ -49,7 +51,7 @@ class _FakeRenderer:
 
 
 def test_frame_times_name_every_model_and_its_engine_per_ball_count():
-    cfg = {"timing_balls": [2, 5], "seed": 0, "radius": [1.0, 2.0], "width": 8}
+    cfg = {"timing_balls": [2, 5], "seed": 0, "radius": [1.0, 2.0], "width": 8, **KERNEL}
     balls = speed.frame_time_vs_balls({"net": _FakeRenderer()}, cfg, repeats=1)
     assert balls.balls.tolist() == [2, 2, 5, 5]
     assert balls.model.tolist() == [speed.RAY_MARCHER, "net"] * 2

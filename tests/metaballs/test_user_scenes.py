@@ -29,6 +29,8 @@ from neurender.metaballs.user_scenes import (
     view_notes,
 )
 
+from .keys import KERNEL
+
 BALLS = pd.DataFrame(
     {
         "scene": ["a", "b", "a", "b"],
@@ -271,7 +273,7 @@ def test_a_scene_with_nothing_in_view_is_warned_marked_empty_and_not_scored_as_p
     path = _one_ball(tmp_path, "tiny.csv", 15.0, 1e-9)
     monkeypatch.setattr(jobs, "load_renderers", lambda *a: {v: Blank(32) for v in VARIANTS})
     outputs = {"table": str(tmp_path / "user_scenes.csv"), "figure": str(tmp_path / "f.png")}
-    params = {"device": "cpu", "width": 32}
+    params = {"device": "cpu", "width": 32, **KERNEL}
     with caplog.at_level("WARNING"):
         jobs.metaballs_user_scenes({"scenes": str(path), "checkpoints": []}, outputs, params, 1)
     # The table the report reads: the empty scene has its mark and no score, for every model

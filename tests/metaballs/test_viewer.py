@@ -11,6 +11,8 @@ from neurender.metaballs import GAN_VARIANTS, VARIANTS, jobs
 from neurender.metaballs.demo import RAY_MARCHING, Sequence
 from neurender.metaballs.viewer import demo_view
 
+from .keys import KERNEL
+
 W = 8
 
 
@@ -65,7 +67,7 @@ def test_the_job_renders_every_variant_and_the_ray_marcher(tmp_path, write_split
         }
         jobs.metaballs_train(files, out, params, 1)
         checkpoints.append(out["checkpoint"])
-    params = {"seed": 0, "device": "cpu", "width": 32, "radius": [1.0, 2.0]}
+    params = {"seed": 0, "device": "cpu", "width": 32, "radius": [1.0, 2.0], **KERNEL}
     params |= {"demo_frames": 3, "demo_balls": 4}
     jobs.metaballs_viewer({"checkpoints": checkpoints}, {"viewer": tmp_path / "v.json"}, params, 1)
     viewer = viewer_data.read(tmp_path / "v.json")

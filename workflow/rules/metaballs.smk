@@ -228,7 +228,7 @@ rule metaballs_deploy:
     resources:
         **scheduler_resources("metaballs_deploy"),
     params:
-        cfg={},
+        cfg={"kernel": metaballs_kernel_keys(config["metaballs"])},
     script:
         "../scripts/metaballs_deploy.py"
 
@@ -307,3 +307,70 @@ rule metaballs_viewer:
         cfg=metaballs_viewer_params(),
     script:
         "../scripts/metaballs_viewer.py"
+
+
+rule metaballs_scale:
+    input:
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+        onnx=expand("results/metaballs/{variant}.onnx", variant=METABALLS_VARIANTS),
+    output:
+        rows="results/metaballs/scale.csv",
+        equal_quality=report(
+            "results/metaballs/scale_equal_quality.csv",
+            category="Metaballs",
+            labels={"table": "equal quality at scale"},
+        ),
+        figure=report(
+            "results/metaballs/figures/scale.png",
+            category="Metaballs",
+            labels={"figure": "cost and quality against the number of balls"},
+        ),
+    log:
+        "results/logs/metaballs_scale/metaballs_scale.log",
+    benchmark:
+        "results/benchmarks/metaballs_scale/metaballs_scale.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    # One thread, as every other timing of the stage.
+    threads: 1
+    resources:
+        **scheduler_resources("metaballs_scale"),
+    params:
+        cfg=metaballs_scale_params(),
+    script:
+        "../scripts/metaballs_scale.py"
+
+
+rule metaballs_real_scenes:
+    input:
+        checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
+        onnx=expand("results/metaballs/{variant}.onnx", variant=METABALLS_VARIANTS),
+    output:
+        table=report(
+            "results/metaballs/real_scenes.csv",
+            category="Metaballs",
+            labels={"table": "real scenes"},
+        ),
+        figure=report(
+            "results/metaballs/figures/real_scenes.png",
+            category="Metaballs",
+            labels={"figure": "real scenes"},
+        ),
+        trajectory=report(
+            "results/metaballs/figures/trajectory.gif",
+            category="Metaballs",
+            labels={"figure": "trajectory"},
+        ),
+    log:
+        "results/logs/metaballs_real_scenes/metaballs_real_scenes.log",
+    benchmark:
+        "results/benchmarks/metaballs_real_scenes/metaballs_real_scenes.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("metaballs_real_scenes"),
+    params:
+        cfg=metaballs_real_scenes_params(),
+    script:
+        "../scripts/metaballs_real_scenes.py"

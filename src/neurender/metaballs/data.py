@@ -10,29 +10,35 @@ row per ball: ``example, ball, x, y, z`` (view space), ``radius, red, green, blu
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import torch
+from scipy.spatial import cKDTree
 from tqdm import tqdm
 
 from neurender import io
-from neurender.metaball import Scene
-from neurender.metaballs import ab, inputs, raymarch, scenes
+from neurender.metaball import INVERSE_SQUARE, Kernel, Scene, kernel_from_config
+from neurender.metaballs import ab, families, inputs, raymarch, scenes
 from neurender.rng import torch_generator
 
 
 def min_overlap_depth_gap(scene: Scene, width: int) -> float:
-    """Smallest centre-depth gap between two balls whose projected circles overlap."""
-    centre = scenes.project(scene.centres, width)
-    radius = inputs.projected_radius(scene, width)
-    depth = scene.centres.norm(dim=1)
-    overlap = torch.cdist(centre, centre) < radius[:, None] + radius[None, :]
-    overlap.fill_diagonal_(False)
-    gaps = (depth[:, None] - depth[None, :]).abs()[overlap]
+    """Smallest centre-depth gap between two balls whose projected circles overlap (the
+    candidate pairs from a k-d tree of the projected centres: no ``B x B`` matrix)."""
+    centre = scenes.project(scene.centres, width).double().numpy()
+    radius = inputs.projected_radius(scene, width).double().numpy()
+    depth = scene.centres.norm(dim=1).double().numpy()
+    pairs = cKDTree(centre).query_pairs(2 * float(radius.max()), output_type="ndarray")
+    i, j = pairs.T
+    overlap = np.hypot(*(centre[i] - centre[j]).T) < radius[i] + radius[j]
+    gaps = np.abs(depth[i] - depth[j])[overlap]
     return float(gaps.min()) if len(gaps) else float("nan")
 
 
@@ -40,13 +46,26 @@ def example_scene(cfg: dict, split: str, index: int) -> Scene:
     """The (deterministic) scene of example ``index`` of ``split``, float32.
 
     Args:
-        cfg: ``seed``, ``balls`` [min, max] (count), ``radius`` [min, max] (world units).
+        cfg: ``seed``, ``balls`` [min, max] (count), ``kernel`` (config),
+            ``family``: ``thesis`` (:func:`neurender.metaballs.scenes.sample_scene`, a
+            count uniform in ``balls``, ``radius`` [min, max] in world units) or
+            ``cluster`` (:func:`neurender.metaballs.families.cluster` at ``packing``, a
+            count log-uniform in ``balls``: as many scenes of 10^2 to 10^3 balls as of
+            10^3 to 10^4).
     """
     gen = torch_generator(cfg["seed"], "metaballs", split, index)
     lo, hi = cfg["balls"]
-    count = int(torch.randint(lo, hi + 1, (1,), generator=gen))
+    kernel = kernel_from_config(cfg["kernel"])
+    if cfg["family"] == "cluster":
+        u = float(torch.rand((), generator=gen, dtype=torch.float64))
+        count = round(math.exp(math.log(lo) + u * (math.log(hi) - math.log(lo))))
+        scene = families.cluster(count, gen, packing=cfg["packing"], kernel=kernel)
+    else:
+        count = int(torch.randint(lo, hi + 1, (1,), generator=gen))
+        scene = scenes.sample_scene(count, tuple(cfg["radius"]), gen)
+        scene = dataclasses.replace(scene, kernel=kernel)
     # float32 marching is twice as fast and still far below the 1e-3 depth tolerance.
-    return scenes.sample_scene(count, tuple(cfg["radius"]), gen).to(torch.float32)
+    return scene.to(torch.float32)
 
 
 BALL_COLUMNS = ["example", "ball", "x", "y", "z", "radius", "red", "green", "blue"]
@@ -61,13 +80,14 @@ def ball_rows(example: int, scene: Scene) -> list[dict]:
     ]
 
 
-def read_scenes(path: str | Path) -> dict[int, Scene]:
-    """The float32 scene of every example in a ``{split}_balls.csv`` table."""
+def read_scenes(path: str | Path, kernel: Kernel = INVERSE_SQUARE) -> dict[int, Scene]:
+    """The float32 scene of every example in a ``{split}_balls.csv`` table, its balls'
+    field ``kernel`` (the config's, which the table does not hold)."""
     table = io.read_csv(path, BALL_COLUMNS)
     out = {}
     for example, rows in table.sort_values(["example", "ball"]).groupby("example"):
         values = torch.tensor(rows[BALL_COLUMNS[2:]].to_numpy(), dtype=torch.float32)
-        out[int(example)] = Scene(values[:, :3], values[:, 3], values[:, 4:])
+        out[int(example)] = Scene(values[:, :3], values[:, 3], values[:, 4:], kernel)
     return out
 
 

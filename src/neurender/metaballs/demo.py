@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import pandas as pd
 import torch
 
-from neurender.metaball import Scene
+from neurender.metaball import Scene, kernel_from_config
 from neurender.metaballs import gbuffers, raymarch, scenes
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.rng import torch_generator
@@ -47,10 +47,10 @@ def shade(buffers: torch.Tensor, ambient: float = 0.15, shininess: float = 40.0)
 
 def demo_scene(cfg: Mapping) -> Scene:
     """The demo's float32 balls: ``demo_balls`` of ``radius`` [min, max], kept 3 units
-    inside the depth range so that the animation stays in it."""
+    inside the depth range so that the animation stays in it, of the ``kernel`` (config)."""
     gen = torch_generator(cfg["seed"], "metaballs", "demo")
     scene = scenes.sample_scene(cfg["demo_balls"], tuple(cfg["radius"]), gen, margin=3.0)
-    return scene.to(torch.float32)
+    return dataclasses.replace(scene.to(torch.float32), kernel=kernel_from_config(cfg["kernel"]))
 
 
 def animated_scene(base: Scene, frame: int, frames: int) -> Scene:
@@ -65,7 +65,7 @@ def animated_scene(base: Scene, frame: int, frames: int) -> Scene:
     c, s = math.cos(angle), math.sin(angle)
     rot = torch.tensor([[c, 0, s], [0, 1, 0], [-s, 0, c]], dtype=base.centres.dtype)
     centres = (base.centres + wobble - pivot) @ rot.T + pivot
-    return Scene(centres, base.radii, base.colours)
+    return Scene(centres, base.radii, base.colours, base.kernel)
 
 
 @dataclasses.dataclass

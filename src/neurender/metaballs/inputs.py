@@ -24,6 +24,7 @@ import torch
 
 from neurender.metaball import THRESHOLD, Scene
 from neurender.metaballs.gbuffers import GBuffers, from_hits
+from neurender.metaballs.grid import BallGrid, build_grid
 from neurender.metaballs.scenes import FOV_DEG, normalised_depth, pixel_rays, project
 
 # Floor of 1 - G in ``inflated_radii``: a ball buried in its neighbours' field grows at most
@@ -197,13 +198,18 @@ def draw_spheres(scene: Scene, width: int) -> GBuffers:
 
 
 def sphere_hits(
-    scene: Scene, width: int, rays: torch.Tensor | None = None
+    scene: Scene,
+    width: int,
+    rays: torch.Tensor | None = None,
+    beyond: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Per pixel ``(W * W,)`` (row-major) the distance along its ray to the nearest sphere
     of the scene's radii (``inf`` where none) and that sphere's ball (of tied ones the
     lowest; ``len(scene)`` where none), rasterised per ball over its screen rectangle.
     ``rays``: the :func:`pixel_rays` channels first, ``(3, W * W)``, when the caller has
-    them already."""
+    them already. ``beyond``: ``(W * W,)`` distances at or before which a pixel keeps no
+    sphere (depth peeling: the previous layer's distances give the next layer; ``inf``
+    skips a pixel)."""
     if rays is None:
         rays = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3).T
     ray_axes = rays.contiguous()
@@ -219,22 +225,90 @@ def sphere_hits(
         b = ray[0] * c[:, 0, None] + ray[1] * c[:, 1, None] + ray[2] * c[:, 2, None]
         disc = b.square() - offset[blk.ball]
         t = torch.where((disc >= 0) & blk.valid, b - disc.clamp(min=0).sqrt(), math.inf)
-        keys.append(torch.where(t > 0, t, math.inf))
+        floor = 0 if beyond is None else beyond.index_select(0, pixel).view_as(t)
+        keys.append(torch.where(t > floor, t, math.inf))
     return _nearest(blocks, keys, width, scene)
 
 
-def inflated_radii(scene: Scene) -> torch.Tensor:
+def sphere_counts(scene: Scene, width: int, rays: torch.Tensor | None = None) -> torch.Tensor:
+    """Per pixel ``(W * W,)`` int64 (row-major) how many spheres of the scene's radii its ray
+    passes through (a tangent ray does not), rasterised as :func:`sphere_hits`: one test
+    per ball and pixel of its screen rectangle. ``rays`` as :func:`sphere_hits`.
+
+    Raises:
+        ValueError: a sphere not wholly in front of the camera (centre ``z`` at most ``r``).
+    """
+    behind = torch.nonzero(scene.centres[:, 2] <= scene.radii).squeeze(1)
+    if len(behind):
+        i = int(behind[0])
+        raise ValueError(
+            f"sphere {i} (centre z {float(scene.centres[i, 2])}, radius "
+            f"{float(scene.radii[i])}) is not wholly in front of the camera"
+        )
+    if rays is None:
+        rays = pixel_rays(width, scene.centres.dtype, scene.centres.device).reshape(-1, 3).T
+    ray_axes = rays.contiguous()
+    offset = scene.centres.square().sum(1) - scene.radii.square()
+    counts = torch.zeros(width * width, dtype=torch.long, device=scene.centres.device)
+    for blk in _footprints(_sphere_boxes(scene.centres, scene.radii, width), width):
+        c = scene.centres[blk.ball[:, 0]]
+        pixel = blk.pixel.reshape(-1)
+        ray = [ray_axes[k].index_select(0, pixel).view_as(blk.pixel) for k in range(3)]
+        b = ray[0] * c[:, 0, None] + ray[1] * c[:, 1, None] + ray[2] * c[:, 2, None]
+        # the camera is outside every sphere and they lie ahead: a real root is a hit
+        meets = (b.square() > offset[blk.ball]) & blk.valid
+        counts.index_add_(0, pixel, meets.reshape(-1).long())
+    return counts
+
+
+#: Rows of the inverse square's all-pairs sum in :func:`inflated_radii` at a time: its
+#: memory is this many times the number of balls.
+PAIR_ROWS = 4096
+
+
+def inflated_radii(
+    scene: Scene, chunk: int = PAIR_ROWS, grid: BallGrid | None = None
+) -> torch.Tensor:
     """Radius ``(B,)`` of each ball's surface in the field of all the others.
 
     Near ball ``i`` the other balls add about their field at its centre, ``G_i = sum_{j != i}
-    r_j^2 / |P_i - P_j|^2``, so ``r_i^2 / d^2 + G_i = THRESHOLD`` gives a sphere of radius
-    ``r_i / sqrt(THRESHOLD - G_i)`` (``THRESHOLD - G_i`` floored at ``MIN_FIELD_GAP``).
-    Exact for one ball; a first-order model of the blend otherwise.
+    k(|P_i - P_j|^2 / r_j^2)``, so ``k(d^2 / r_i^2) + G_i = THRESHOLD`` gives a sphere of
+    radius ``r_i sqrt(k^-1(THRESHOLD - G_i))`` (:meth:`neurender.metaball.Kernel.inverse`;
+    ``THRESHOLD - G_i`` floored at ``MIN_FIELD_GAP``): ``r_i / sqrt(THRESHOLD - G_i)`` for
+    the inverse square. Exact for one ball; a first-order model of the blend otherwise.
+
+    The inverse square sums every pair, ``chunk`` rows at a time (``O(B chunk)`` memory);
+    a kernel of finite support only the balls listed in the cell of each centre
+    (:func:`neurender.metaballs.grid.build_grid`, or ``grid`` if given): ``O(B x
+    neighbours)`` time and memory.
     """
-    d2 = torch.cdist(scene.centres, scene.centres).square()
-    d2.fill_diagonal_(math.inf)
-    others = (scene.radii.square()[None, :] / d2).sum(1)
+    if scene.kernel.finite:
+        gap = (THRESHOLD - _neighbour_field(scene, grid)).clamp(min=MIN_FIELD_GAP)
+        return scene.radii * scene.kernel.inverse(gap).sqrt()
+    others = [_inverse_square_rows(scene, start, chunk) for start in range(0, len(scene), chunk)]
+    others = torch.cat(others) if others else torch.zeros_like(scene.radii)
     return scene.radii / (THRESHOLD - others).clamp(min=MIN_FIELD_GAP).sqrt()
+
+
+def _inverse_square_rows(scene: Scene, start: int, chunk: int) -> torch.Tensor:
+    """``G_i`` ``(n,)`` of the inverse square for the balls ``start .. start + n`` (at most
+    ``chunk``): ``sum_{j != i} r_j^2 / |P_i - P_j|^2``."""
+    d2 = torch.cdist(scene.centres[start : start + chunk], scene.centres).square()
+    rows = torch.arange(len(d2), device=d2.device)
+    d2[rows, start + rows] = math.inf
+    return (scene.radii.square()[None, :] / d2).sum(1)
+
+
+def _neighbour_field(scene: Scene, grid: BallGrid | None) -> torch.Tensor:
+    """``G_i`` ``(B,)`` of a kernel of finite support: the field of every other ball at
+    each ball's centre, over the balls listed in the centre's cell."""
+    grid = build_grid(scene) if grid is None else grid
+    owner, ball = grid.pairs(grid.cell_of(scene.centres))
+    other = ball != owner
+    owner, ball = owner[other], ball[other]
+    d2 = (scene.centres[owner] - scene.centres[ball]).square().sum(1)
+    f = scene.kernel.value(d2 / scene.radii[ball].square())
+    return torch.zeros_like(scene.radii).index_add_(0, owner, f)
 
 
 def inflated_spheres(scene: Scene, width: int) -> GBuffers:

@@ -12,9 +12,11 @@ import logging
 from pathlib import Path
 
 import pandas as pd
+import torch
 
 from neurender import io, viewer_data
 from neurender.deployment import deployment_table
+from neurender.metaball import kernel_from_config
 from neurender.metaballs import (
     DEMO_VARIANTS,
     REFINED_BASELINE,
@@ -26,6 +28,8 @@ from neurender.metaballs import (
     equal_quality,
     evaluate,
     figures,
+    real_scenes,
+    scale,
     scene_file,
     speed,
     summary,
@@ -40,6 +44,8 @@ log = logging.getLogger(__name__)
 
 #: AB examples shown in the data summary figure (from the first split).
 SHOWN_EXAMPLES = 4
+#: The network the scale figure's equal-quality lines and the trajectory's animation show.
+SCALE_NETWORK = "sphere_residual"
 
 
 def metaballs_examples(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
@@ -82,7 +88,7 @@ def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) 
     and their figures."""
     columns = ["example", "file", "balls", "min_depth_separation"]
     manifest = io.read_csv(inputs["test_manifest"], columns)
-    scene_of = data.read_scenes(inputs["test_balls"])
+    scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
     renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
     frame, showcase = evaluate.score_test_set(
         inputs["test_dir"], manifest, scene_of, renderers, params["width"]
@@ -108,7 +114,7 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
     to 20 times slower); the tidy ``table`` and the ``figure``."""
     manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
     manifest = manifest.head(params["equal_quality_examples"])
-    scene_of = data.read_scenes(inputs["test_balls"])
+    scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
     examples = [
         (scene_of[int(ex.example)], ab.read_ab(Path(inputs["test_dir"]) / ex.file)["target"])
         for ex in manifest.itertuples()
@@ -162,7 +168,7 @@ def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) ->
     first test scenes (``test_balls``) and timed by both engines on the CPU with
     ``threads`` threads (:mod:`neurender.metaballs.deploy`); one row per variant in
     ``table`` (:mod:`neurender.deployment`)."""
-    scenes = data.read_scenes(inputs["test_balls"])
+    scenes = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
     rows = []
     for variant, checkpoint, onnx_out in zip(
         VARIANTS, inputs["checkpoints"], outputs["onnx"], strict=True
@@ -193,7 +199,9 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
         log.warning("%s: %s", inputs["scenes"], note)
     renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
     frame, shown = user_scenes.score_user_scenes(
-        user_scenes.to_scenes(balls), renderers, params["width"]
+        user_scenes.to_scenes(balls, kernel_from_config(params["kernel"])),
+        renderers,
+        params["width"],
     )
     for note in user_scenes.view_notes(frame):
         log.warning("%s: %s", inputs["scenes"], note)
@@ -215,3 +223,63 @@ def metaballs_viewer(inputs: dict, outputs: dict, params: dict, threads: int) ->
         "Metaballs: the demo animation, networks against the ray marcher",
         demo_view(sequence, list(VARIANTS), params["width"]),
     )
+
+
+def _scale_networks(renderers: dict[str, MetaballRenderer]) -> dict[str, tuple]:
+    """:func:`neurender.metaballs.scale.measure_scene`'s networks of trained renderers."""
+    return {name: (r.inputs, r, r.engine) for name, r in renderers.items()}
+
+
+def metaballs_scale(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every renderer's cost and quality against the number of balls
+    (:mod:`neurender.metaballs.scale`): the networks (``checkpoints`` and their shipped
+    graphs ``onnx`` in the order of :data:`VARIANTS`) on the cluster scenes of each count of
+    ``scale.balls`` at each of ``scale.widths``, one thread as the other timings; the tidy
+    ``rows``, the ``equal_quality`` table and the ``figure``."""
+    renderers = load_renderers(
+        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
+    )
+    cfg = {
+        **params["scale"],
+        "seed": params["seed"],
+        "packing": params["packing"],
+        "kernel": kernel_from_config(params["kernel"]),
+    }
+    rows = scale.measure(renderers, cfg, params["width"])
+    io.write_csv(outputs["rows"], rows)
+    mean = scale.means(rows)
+    equal = scale.equal_quality_rows(mean, list(VARIANTS))
+    io.write_csv(outputs["equal_quality"], equal)
+    scale.scale_figure(mean, equal, SCALE_NETWORK, outputs["figure"])
+
+
+def metaballs_real_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The shipped real scenes of ``scale.structures`` (:mod:`neurender.metaballs.real_scenes`)
+    drawn by every renderer at ``width`` and scored against the exact one: the tidy
+    ``table`` (a row per scene, renderer, setting and metric), the ``figure`` (each scene
+    by the exact renderer, the networks and each no-learning renderer's most exact setting)
+    and the trajectory's animation by the exact renderer beside :data:`SCALE_NETWORK`
+    (``trajectory``)."""
+    renderers = load_renderers(
+        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
+    )
+    cfg, width = params["scale"], params["width"]
+    kernel = kernel_from_config(params["kernel"])
+    scenes = real_scenes.real_scenes(
+        tuple(cfg["structures"]), kernel, cfg["ball_scale"], cfg["trajectory_frames"]
+    )
+    networks = _scale_networks(renderers)
+    rows, shown = [], {}
+    for label, scene in scenes.items():
+        measured = scale.measure_scene(scene, width, networks, True, cfg["repeats"])
+        rows += [{"scene": label, "balls": len(scene), **row} for row in measured.rows]
+        shown[label] = real_scenes.showcase(scene, measured, width)
+    io.write_csv(outputs["table"], pd.DataFrame(rows))
+    figures.user_scenes_figure(shown, real_scenes.shown_models(shown), outputs["figure"])
+    if "adk_dims" in cfg["structures"]:
+        pictures = real_scenes.trajectory_pictures(
+            real_scenes.trajectory(kernel, cfg["ball_scale"]), renderers[SCALE_NETWORK], width
+        )
+    else:
+        pictures = [torch.zeros(3, width, 2 * width)]
+    figures.demo_gif(figures.demo_frames(pictures), outputs["trajectory"], ms_per_frame=200)

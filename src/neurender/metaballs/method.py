@@ -43,6 +43,29 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             yield f"metaballs.user_scenes = {scenes!r}: {err}"
 
 
+def kernel_keys(metaballs: Mapping[str, Any]) -> dict[str, Any]:
+    """The keys of ``metaballs.kernel`` its kernel reads: ``name``, and ``support`` and
+    ``sharpness`` for a kernel of finite support (so that editing an unused one reruns
+    nothing)."""
+    kernel = metaballs["kernel"]
+    if kernel["name"] == "inverse_square":
+        return {"name": kernel["name"]}
+    return {k: kernel[k] for k in ("name", "support", "sharpness")}
+
+
+def scene_keys(metaballs: Mapping[str, Any]) -> dict[str, Any]:
+    """The keys of ``metaballs`` an example's scene reads: ``balls``, ``family``, the
+    kernel's (:func:`kernel_keys`) and ``radius`` (family ``thesis``) or ``packing``
+    (``cluster``)."""
+    own = "packing" if metaballs["family"] == "cluster" else "radius"
+    return {
+        "balls": metaballs["balls"],
+        "family": metaballs["family"],
+        own: metaballs[own],
+        "kernel": kernel_keys(metaballs),
+    }
+
+
 def _examples(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Ray-marched pixels x the mean number of balls (the middle of ``metaballs.balls``)."""
     mb = cfg["metaballs"]
@@ -98,6 +121,19 @@ def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Unit
     return work / 1e6, w * w / 1e3
 
 
+def _scale(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every renderer's pixels x balls over the counts, widths and scenes measured."""
+    sc = cfg["metaballs_scale"]
+    pixels = sum(w * w for w in sc["widths"])
+    return pixels * sum(sc["balls"]) * sc["scenes"] / 1e9, max(sc["widths"]) ** 2 / 1e3
+
+
+def _real_scenes(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The real scenes' count at the trained width (each some 10^4 balls)."""
+    sc, w = cfg["metaballs_scale"], cfg["metaballs"]["width"]
+    return len(sc["structures"]) * sc["trajectory_frames"] * w * w / 1e5, w * w / 1e3
+
+
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     """The tables, figures (the demo's GIF last) and viewer (the demo) of the metaballs'
     report section; the user scenes' table and figure when there are any."""
@@ -114,10 +150,18 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     if config["metaballs"]["user_scenes"]:
         tables += ("user_scenes",)
         figures += ("your_scenes",)
+    animations = ["demo"]
+    if config["metaballs_scale"]["balls"]:
+        tables += ("scale_equal_quality",)
+        figures += ("scale",)
+    if config["metaballs_scale"]["structures"]:
+        tables += ("real_scenes",)
+        figures += ("real_scenes",)
+        animations.append("trajectory")
     return ReportInputs(
         tables=[f"results/metaballs/{t}.csv" for t in tables],
         figures=[f"results/metaballs/figures/{name}.png" for name in figures]
-        + ["results/metaballs/figures/demo.gif"],
+        + [f"results/metaballs/figures/{name}.gif" for name in animations],
         viewers=["results/metaballs/viewers/demo.json"],
     )
 
@@ -130,7 +174,7 @@ METHOD = Method(
         "Faculty of Informatics, 2019 (advisor Ivan Viola)."
     ),
     link="https://repositum.tuwien.at",
-    config_sections=("metaballs", "metaballs_model"),
+    config_sections=("metaballs", "metaballs_model", "metaballs_scale"),
     problems=problems,
     report_inputs=report_inputs,
     user_paths=user_paths,
@@ -145,6 +189,8 @@ METHOD = Method(
         "metaballs_targets": Rule(STAGE),
         "metaballs_user_scenes": Rule(STAGE),
         "metaballs_viewer": Rule(STAGE, _viewer),
+        "metaballs_scale": Rule(STAGE, _scale),
+        "metaballs_real_scenes": Rule(STAGE, _real_scenes),
     },
     tables_dir=resources.files(__package__),
 )

@@ -41,6 +41,7 @@ class MetaballRenderer:
         self.device = resolve_device(device, threads)
         self.variant = extra["variant"]
         self.width = extra["width"]
+        self.ngf = extra["ngf"]
         self.model = build_generator(self.width, extra["ngf"], self.variant)
         self.model.load_state_dict(state["model"])
         self.model.to(self.device).eval()
@@ -61,7 +62,8 @@ class MetaballRenderer:
     def inputs(self, scene: Scene, circles: torch.Tensor | None = None) -> torch.Tensor:
         """The ``(C, W, W)`` input in [0, 1] (see :func:`network_inputs`), drawn on the
         renderer's device (on a GPU, drawing on the CPU would cost more than the network)."""
-        on_device = Scene(*(t.to(self.device) for t in (scene.centres, scene.radii, scene.colours)))
+        tensors = (scene.centres, scene.radii, scene.colours)
+        on_device = Scene(*(t.to(self.device) for t in tensors), scene.kernel)
         if circles is not None:
             circles = circles.to(self.device)
         return network_inputs(on_device, self.width, self.variant, circles)

@@ -9,11 +9,13 @@ a network on the CPU its shipped ONNX graph (:class:`MetaballRenderer`'s ``engin
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 import pandas as pd
 import torch
 
+from neurender.metaball import kernel_from_config
 from neurender.metaballs import raymarch, scenes
 from neurender.metaballs.demo import RAY_MARCHING
 from neurender.metaballs.renderer import MetaballRenderer
@@ -28,12 +30,13 @@ def frame_time_vs_balls(
     renderers: Mapping[str, MetaballRenderer], cfg: Mapping, repeats: int = 5
 ) -> pd.DataFrame:
     """Rows ``balls, model, engine, ms_per_frame`` for a random scene of each of
-    ``timing_balls`` (``seed``, ``radius`` [min, max], ``width``): the ray marcher, then
+    ``timing_balls`` (``seed``, ``radius`` [min, max], ``kernel``, ``width``): the ray marcher, then
     each network."""
     rows = []
     for n in cfg["timing_balls"]:
         gen = torch_generator(cfg["seed"], "timing", n)
         scene = scenes.sample_scene(n, tuple(cfg["radius"]), gen).to(torch.float32)
+        scene = dataclasses.replace(scene, kernel=kernel_from_config(cfg["kernel"]))
         _, t_march = timed(raymarch.render_gbuffers, scene, cfg["width"], repeats=repeats)
         rows.append(
             {"balls": n, "model": RAY_MARCHER, "engine": "pytorch", "ms_per_frame": 1e3 * t_march}

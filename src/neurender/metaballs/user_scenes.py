@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 import torch
 
-from neurender.metaball import THRESHOLD, Scene, field
+from neurender.metaball import INVERSE_SQUARE, THRESHOLD, Kernel, Scene, field
 from neurender.metaballs import EMPTY_FRAME, ab, inputs, raymarch, scenes
 from neurender.metaballs.evaluate import Showcase, baselines, example_metrics
 from neurender.metaballs.renderer import MetaballRenderer
@@ -95,13 +95,13 @@ def view_notes(frame: pd.DataFrame) -> list[str]:
     return notes
 
 
-def to_scenes(balls: pd.DataFrame) -> dict[str, Scene]:
-    """Scene label to its float32 :class:`~neurender.metaball.Scene`, in order of first
-    appearance."""
+def to_scenes(balls: pd.DataFrame, kernel: Kernel = INVERSE_SQUARE) -> dict[str, Scene]:
+    """Scene label to its float32 :class:`~neurender.metaball.Scene` of the field
+    ``kernel``, in order of first appearance."""
     out = {}
     for scene, rows in balls.groupby("scene", sort=False):
         values = torch.tensor(rows[list(NUMBERS)].to_numpy(), dtype=torch.float32)
-        out[str(scene)] = Scene(values[:, :3], values[:, 3], values[:, 4:])
+        out[str(scene)] = Scene(values[:, :3], values[:, 3], values[:, 4:], kernel)
     return out
 
 

@@ -154,6 +154,10 @@ def _study(study: Study, root: Path) -> dict:
             {"command": r["command"], "commit": commit_label(r), "note": r["note"]} for r in runs
         ],
         "html": _table_html(shown),
+        "figures": [
+            {"caption": Path(f).stem.replace("_", " "), "src": _embed_image(root / f)}
+            for f in study.figures
+        ],
     }
 
 

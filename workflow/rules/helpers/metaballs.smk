@@ -7,7 +7,9 @@ from neurender.metaballs import (
     VARIANTS as METABALLS_VARIANTS,
 )
 
-METABALLS_SCENE_KEYS = ("width", "balls", "radius")
+from neurender.metaballs.method import kernel_keys as metaballs_kernel_keys
+from neurender.metaballs.method import scene_keys as metaballs_scene_keys
+
 #: The keys of ``metaballs_model`` every training job reads; the GAN variants also ``ndf``
 #: and ``gan_weight`` (the others train with ``gan_weight`` 0).
 METABALLS_TRAIN_KEYS = (
@@ -27,7 +29,12 @@ def metaballs_examples_params(wildcards):
     split = wildcards.split
     examples = config["metaballs"]["examples"][split]
     return section_keys(
-        "metaballs", METABALLS_SCENE_KEYS, ("seed",), split=split, examples=examples
+        "metaballs",
+        ("width",),
+        ("seed",),
+        split=split,
+        examples=examples,
+        **metaballs_scene_keys(config["metaballs"]),
     )
 
 
@@ -42,24 +49,32 @@ def metaballs_train_params(wildcards):
 
 
 def metaballs_evaluate_params():
-    return section_keys("metaballs", ("width",), ("device",))
+    return section_keys(
+        "metaballs",
+        ("width",),
+        ("device",),
+        kernel=metaballs_kernel_keys(config["metaballs"]),
+    )
 
 
 def metaballs_equal_quality_params():
     cfg = section_keys("metaballs_model", ("equal_quality_examples",), ("device",))
-    return {**cfg, **section_keys("metaballs", ("width",))}
+    kernel = metaballs_kernel_keys(config["metaballs"])
+    return {**cfg, **section_keys("metaballs", ("width",), kernel=kernel)}
 
 
 def metaballs_demo_params():
     cfg = section_keys("metaballs_model", METABALLS_DEMO_KEYS, ("seed", "device"))
-    return {**cfg, **section_keys("metaballs", ("width", "radius"))}
+    kernel = metaballs_kernel_keys(config["metaballs"])
+    return {**cfg, **section_keys("metaballs", ("width", "radius"), kernel=kernel)}
 
 
 def metaballs_viewer_params():
     """The demo's scene and length (not its timing keys) and the image width."""
     keys = ("demo_frames", "demo_balls")
     cfg = section_keys("metaballs_model", keys, ("seed", "device"))
-    return {**cfg, **section_keys("metaballs", ("width", "radius"))}
+    kernel = metaballs_kernel_keys(config["metaballs"])
+    return {**cfg, **section_keys("metaballs", ("width", "radius"), kernel=kernel)}
 
 
 def metaballs_user_scenes_file():
@@ -68,3 +83,24 @@ def metaballs_user_scenes_file():
         as_input(config["metaballs"]["user_scenes"])
         or "metaballs.user_scenes is not set"
     )
+
+
+def metaballs_scale_params():
+    """The measurement's keys, the cluster family's and the kernel's, and the trained width."""
+    keys = ("balls", "widths", "scenes", "repeats")
+    mb = config["metaballs"]
+    return {
+        **section_keys("metaballs", ("width", "packing"), ("seed", "device")),
+        "kernel": metaballs_kernel_keys(mb),
+        "scale": {k: config["metaballs_scale"][k] for k in keys},
+    }
+
+
+def metaballs_real_scenes_params():
+    """The real scenes' keys, the kernel's and the trained width."""
+    keys = ("structures", "ball_scale", "trajectory_frames", "repeats")
+    return {
+        **section_keys("metaballs", ("width",), ("device",)),
+        "kernel": metaballs_kernel_keys(config["metaballs"]),
+        "scale": {k: config["metaballs_scale"][k] for k in keys},
+    }

@@ -1,0 +1,4 @@
+from neurender.jobs import run
+from neurender.metaballs import jobs
+
+run(snakemake, jobs.metaballs_real_scenes)
