@@ -312,7 +312,7 @@ rule metaballs_viewer:
 rule metaballs_scale:
     input:
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
-        onnx=expand("results/metaballs/{variant}.onnx", variant=METABALLS_VARIANTS),
+        onnx=expand("results/metaballs/onnx/{variant}.onnx", variant=METABALLS_VARIANTS),
     output:
         rows="results/metaballs/scale.csv",
         equal_quality=report(
@@ -344,7 +344,7 @@ rule metaballs_scale:
 rule metaballs_real_scenes:
     input:
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
-        onnx=expand("results/metaballs/{variant}.onnx", variant=METABALLS_VARIANTS),
+        onnx=expand("results/metaballs/onnx/{variant}.onnx", variant=METABALLS_VARIANTS),
     output:
         table=report(
             "results/metaballs/real_scenes.csv",
