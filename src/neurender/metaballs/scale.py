@@ -160,11 +160,11 @@ class Measured:
     """Every renderer's measurements on one scene at one width.
 
     Attributes:
-        rows: tidy rows ``renderer, setting, engine, metric, value`` (the exact
-            renderer's ``ms_per_frame``, ``peak_mb`` and frame statistics
-            (:func:`neurender.metaballs.families.frame_stats`); each other renderer's times,
-            ``peak_mb`` and, where scored, the metrics of
-            :func:`neurender.metaballs.evaluate.example_metrics`).
+        rows: tidy rows ``renderer, setting, engine, metric, value``: every renderer's
+            times, ``peak_mb`` and, where scored, the metrics of
+            :func:`neurender.metaballs.evaluate.example_metrics` (the exact renderer's
+            against itself), and the exact frame's statistics
+            (:func:`neurender.metaballs.families.frame_stats`).
         stacks: ``(renderer, setting)`` to its ``(7, W, W)`` stack (the exact one's under
             ``(EXACT, "reference")``).
     """
@@ -191,9 +191,10 @@ def measure_scene(
     """
     truth, seconds, added = _timed(raymarch.render_gbuffers, scene, width, repeats=1)
     stats = families.frame_stats(scene, truth)
-    exact = {"ms_per_frame": 1e3 * seconds, "peak_mb": added / 2**20, **stats}
-    rows = _rows(EXACT, "reference", "pytorch", exact)
     target = truth.stack()
+    exact = {"ms_per_frame": 1e3 * seconds, "peak_mb": added / 2**20, **stats}
+    exact |= evaluate.example_metrics(target, target)  # its own quality: the best there is
+    rows = _rows(EXACT, "reference", "pytorch", exact)
     stacks = {(EXACT, "reference"): target}
     for s in baselines():
         out, seconds, added = _timed(s.render, scene, width, repeats=repeats)
