@@ -38,6 +38,26 @@ def test_timing_table_speedup_is_at_the_most_balls():
     assert per_balls.dataset.tolist() == ["3 balls"] * 2 + ["20 balls"] * 2
 
 
+def test_timing_table_speedup_skips_frames_the_near_plane_walls_off():
+    row = {"frame": 0, "model": "net", "input_ms": 1.0, "network_ms": 2.0}
+    timings = pd.DataFrame([row | {"shading_ms": 3.0, "raymarch_ms": 4.0}])
+    flips = pd.DataFrame({"frame": [1], "net": [0.1], "ray marching": [0.05]})
+    balls = pd.DataFrame(
+        {
+            "balls": [3, 3, 20, 20, 145, 145],
+            "model": [speed.RAY_MARCHER, "net"] * 3,
+            "engine": ["pytorch", "onnxruntime"] * 3,
+            "ms_per_frame": [10.0, 5.0, 100.0, 4.0, 900.0, 4.0],
+            "near_plane": [0.0, 0.0, 0.04, 0.04, 0.99, 0.99],
+        }
+    )
+    table = speed.timing_table(timings, flips, balls)
+    demo = table[table.dataset == "demo"].set_index("metric")["value"]
+    assert demo["speedup_at_20_balls"] == 25.0 and "speedup_at_145_balls" not in demo
+    walled = table[(table.dataset == "145 balls") & (table.metric == "near_plane")]
+    assert walled.value.tolist() == [0.99, 0.99]
+
+
 class _FakeRenderer:
     """Inputs and network of a renderer that runs its network through ONNX Runtime."""
 
@@ -57,3 +77,4 @@ def test_frame_times_name_every_model_and_its_engine_per_ball_count():
     assert balls.model.tolist() == [speed.RAY_MARCHER, "net"] * 2
     assert balls.engine.tolist() == ["pytorch", "onnxruntime"] * 2
     assert (balls.ms_per_frame > 0).all()
+    assert balls.near_plane.between(0, 1).all()

@@ -1,0 +1,103 @@
+"""The scale and real-scene jobs end to end on tiny networks trained on cluster scenes."""
+
+import pytest
+from PIL import Image
+
+from neurender import io
+from neurender.metaballs import GAN_VARIANTS, VARIANTS, inputs, jobs, molecules, scale
+
+WIDTH = 32
+KERNEL = {"kernel": {"name": "wyvill", "support": 2.0, "sharpness": 1.0}}
+
+
+@pytest.fixture(autouse=True)
+def few_baselines(monkeypatch):
+    """Two cheap no-learning renderers (each has its own tests): the jobs' work is what is
+    tested here."""
+    cheap = [
+        scale.Setting("isolated spheres", "spheres", inputs.draw_spheres),
+        scale.Setting("half-width marcher", "0.5 width", scale._marcher(0.5, 4)),
+    ]
+    monkeypatch.setattr(scale, "baselines", lambda: cheap)
+
+
+@pytest.fixture(scope="module")
+def shipped(tmp_path_factory):
+    """``checkpoints`` and ``onnx`` of every variant trained a step on cluster scenes."""
+    root = tmp_path_factory.mktemp("scale")
+    files = {}
+    for split, count in (("train", 2), ("val", 1), ("test", 2)):
+        params = {"seed": 1, "width": WIDTH, "balls": [20, 200], "family": "cluster"}
+        params |= {"packing": 0.15, **KERNEL, "split": split, "examples": count}
+        outputs = {
+            "examples": str(root / split),
+            "manifest": str(root / f"{split}_manifest.csv"),
+            "balls": str(root / f"{split}_balls.csv"),
+        }
+        jobs.metaballs_examples({}, outputs, params, 1)
+        files |= {f"{split}_dir": outputs["examples"]}
+        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
+    checkpoints = []
+    for variant in VARIANTS:
+        params = {"seed": 1, "device": "cpu", "width": WIDTH, "variant": variant, "ngf": 4}
+        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
+        params |= {"lr_schedule": "constant", "ndf": 4}
+        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
+        checkpoints.append(str(root / f"{variant}.pt"))
+        outputs = {"checkpoint": checkpoints[-1], "loss": str(root / f"{variant}.csv")}
+        jobs.metaballs_train(files, outputs, params, 1)
+    onnx = [str(root / "onnx" / f"{v}.onnx") for v in VARIANTS]
+    inputs = {"test_balls": files["test_balls"], "checkpoints": checkpoints}
+    jobs.metaballs_deploy(inputs, {"onnx": onnx, "table": str(root / "d.csv")}, KERNEL, 1)
+    return {"checkpoints": checkpoints, "onnx": onnx}
+
+
+def test_the_scale_job_measures_every_renderer_at_every_count_and_width(shipped, tmp_path):
+    outputs = {
+        "rows": str(tmp_path / "scale.csv"),
+        "equal_quality": str(tmp_path / "eq.csv"),
+        "figure": str(tmp_path / "scale.png"),
+    }
+    scale_cfg = {"balls": [30, 300], "widths": [WIDTH, 2 * WIDTH], "scenes": 1, "repeats": 1}
+    params = {"seed": 0, "device": "cpu", "width": WIDTH, "packing": 0.15, **KERNEL}
+    jobs.metaballs_scale(shipped, outputs, params | {"scale": scale_cfg}, 1)
+
+    rows = io.read_csv(outputs["rows"])
+    renderers = {(s.renderer, s.setting) for s in scale.baselines()} | {(scale.EXACT, "reference")}
+    for (count, width), part in rows.groupby(["balls", "width"]):
+        assert renderers <= set(zip(part.renderer, part.setting, strict=True))
+        nets = part[part.renderer.isin(VARIANTS)]
+        assert set(nets.renderer) == set(VARIANTS)
+        scored = "iou_depth" in set(nets.metric)
+        assert scored == (width == WIDTH)  # trained width scored, the other timed only
+        stats = part[part.renderer == scale.EXACT].set_index("metric")["value"]
+        assert stats["near_plane"] == 0 and 0 < stats["covered"] < 1
+    equal = io.read_csv(outputs["equal_quality"])
+    assert len(equal) == len(VARIANTS) * 2 * 2 * len({r for r, _ in renderers})
+    exact = equal[equal.renderer == scale.EXACT]
+    assert not exact.bound.any()  # the exact renderer reaches any network's quality
+    assert (equal.speedup > 0).all()
+    assert Image.open(outputs["figure"]).size[0] > 0
+
+
+def test_the_real_scenes_job_scores_every_scene_and_animates_the_trajectory(shipped, tmp_path):
+    outputs = {
+        "table": str(tmp_path / "real.csv"),
+        "figure": str(tmp_path / "real.png"),
+        "trajectory": str(tmp_path / "trajectory.gif"),
+    }
+    cfg = {"structures": ["1a28", "adk_dims"], "ball_scale": 1.0, "trajectory_frames": 2}
+    params = {"device": "cpu", "width": WIDTH, **KERNEL, "scale": cfg | {"repeats": 1}}
+    jobs.metaballs_real_scenes(shipped, outputs, params, 1)
+
+    table = io.read_csv(outputs["table"])
+    assert set(table.scene) == {"1a28", "adk_dims frame 0", "adk_dims frame 11"}
+    atoms = table.groupby("scene").balls.first()
+    assert atoms["1a28"] == len(molecules.read_structure(molecules.STRUCTURES / "1a28.pdb.gz"))
+    exact = table[table.renderer == scale.EXACT].pivot(index="scene", columns="metric")["value"]
+    assert (exact.near_plane == 0).all() and (exact.covered > 0.05).all()
+    nets = table[table.renderer.isin(VARIANTS) & (table.metric == "iou_depth")]
+    assert len(nets) == 3 * len(VARIANTS)
+    gif = Image.open(outputs["trajectory"])
+    assert gif.n_frames == molecules.model_count(molecules.STRUCTURES / molecules.TRAJECTORY)
+    assert gif.size == (2 * WIDTH, WIDTH)
