@@ -279,7 +279,9 @@ def test_the_report_rule_reads_every_methods_report_inputs_and_studies(smoke):
     for kind in ("tables", "figures", "viewers"):
         expected += [f for m in methods.METHODS for f in getattr(m.report_inputs(smoke), kind)]
     # every committed study's CSV and sidecar, each once (two views may share a CSV)
-    studies = [p for m in methods.METHODS for s in m.studies for p in (s.csv, s.sidecar)]
+    studies = [
+        p for m in methods.METHODS for s in m.studies for p in (s.csv, s.sidecar, *s.figures)
+    ]
     assert studies
     expected += list(dict.fromkeys(studies))
     assert listed == [*expected, "results/provenance.json"]

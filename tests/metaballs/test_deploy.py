@@ -6,12 +6,13 @@ import pytest
 import torch
 
 from neurender.deployment import COLUMNS, read_deployment
-from neurender.metaballs import GAN_VARIANTS, VARIANTS, jobs, scenes
+from neurender.metaballs import VARIANTS, jobs, scenes
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.nn.inference import OnnxNetwork
 from neurender.nn.unet import count_parameters
 
 from .keys import KERNEL, THESIS_SCENES
+from .tiny import train_variants, write_splits
 
 WIDTH = 32
 
@@ -20,26 +21,9 @@ WIDTH = 32
 def deployed(tmp_path_factory):
     """The deploy job's outputs for every variant, each trained for one epoch."""
     tmp = tmp_path_factory.mktemp("metaballs_deploy")
-    files = {}
-    for split, count in (("train", 4), ("val", 2), ("test", 1)):
-        params = {"seed": 1, "width": WIDTH, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
-        outputs = {
-            "examples": str(tmp / split),
-            "manifest": str(tmp / f"{split}_manifest.csv"),
-            "balls": str(tmp / f"{split}_balls.csv"),
-        }
-        jobs.metaballs_examples({}, outputs, params | {"split": split, "examples": count}, 1)
-        files |= {f"{split}_dir": outputs["examples"]}
-        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
-    checkpoints = []
-    for variant in VARIANTS:
-        params = {"seed": 1, "device": "cpu", "width": WIDTH, "variant": variant, "ngf": 4}
-        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-        params |= {"lr_schedule": "constant", "ndf": 4}
-        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
-        checkpoints.append(str(tmp / f"{variant}.pt"))
-        outputs = {"checkpoint": checkpoints[-1], "loss": str(tmp / f"{variant}.csv")}
-        jobs.metaballs_train(files, outputs, params, 1)
+    scene = {"seed": 1, "width": WIDTH, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
+    files = write_splits(tmp, scene, {"train": 4, "val": 2, "test": 1})
+    checkpoints = train_variants(files, tmp, WIDTH)
     inputs = {"test_balls": files["test_balls"], "checkpoints": checkpoints}
     outputs = {
         "onnx": [str(tmp / "onnx" / f"{v}.onnx") for v in VARIANTS],

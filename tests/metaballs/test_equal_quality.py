@@ -8,6 +8,7 @@ from neurender.metaballs import equal_quality as eq
 from neurender.metaballs import raymarch, scenes
 
 from .keys import KERNEL, THESIS_SCENES
+from .tiny import train_variants, write_splits
 
 
 def _scenes(count=3):
@@ -124,28 +125,11 @@ def test_network_targets_average_the_first_examples_only():
 
 def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path):
     from neurender import io
-    from neurender.metaballs import GAN_VARIANTS, REFINED_BASELINE, VARIANTS, jobs
+    from neurender.metaballs import REFINED_BASELINE, VARIANTS, jobs
 
-    files = {}
-    for split, count in (("train", 2), ("val", 1), ("test", 2)):
-        params = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
-        outputs = {
-            "examples": str(tmp_path / split),
-            "manifest": str(tmp_path / f"{split}_manifest.csv"),
-            "balls": str(tmp_path / f"{split}_balls.csv"),
-        }
-        jobs.metaballs_examples({}, outputs, params | {"split": split, "examples": count}, 1)
-        files |= {f"{split}_dir": outputs["examples"]}
-        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
-    checkpoints = []
-    for variant in VARIANTS:
-        params = {"seed": 1, "device": "cpu", "width": 32, "variant": variant, "ngf": 4}
-        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-        params |= {"lr_schedule": "constant", "ndf": 4}
-        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
-        checkpoints.append(str(tmp_path / f"{variant}.pt"))
-        outputs = {"checkpoint": checkpoints[-1], "loss": str(tmp_path / f"{variant}.csv")}
-        jobs.metaballs_train(files, outputs, params, 1)
+    scene = {"seed": 1, "width": 32, "balls": [2, 4], "radius": [1, 2], **THESIS_SCENES}
+    files = write_splits(tmp_path, scene, {"train": 2, "val": 1, "test": 2})
+    checkpoints = train_variants(files, tmp_path, 32)
     test = {k: files[f"test_{k}"] for k in ("dir", "manifest", "balls")}
     inputs = {f"test_{k}": v for k, v in test.items()} | {"checkpoints": checkpoints}
     evaluated = {

@@ -4,7 +4,9 @@ import pytest
 from PIL import Image
 
 from neurender import io
-from neurender.metaballs import GAN_VARIANTS, VARIANTS, inputs, jobs, molecules, scale
+from neurender.metaballs import VARIANTS, inputs, jobs, molecules, scale
+
+from .tiny import train_variants, write_splits
 
 WIDTH = 32
 KERNEL = {"kernel": {"name": "wyvill", "support": 2.0, "sharpness": 1.0}}
@@ -25,27 +27,10 @@ def few_baselines(monkeypatch):
 def shipped(tmp_path_factory):
     """``checkpoints`` and ``onnx`` of every variant trained a step on cluster scenes."""
     root = tmp_path_factory.mktemp("scale")
-    files = {}
-    for split, count in (("train", 2), ("val", 1), ("test", 2)):
-        params = {"seed": 1, "width": WIDTH, "balls": [20, 200], "family": "cluster"}
-        params |= {"packing": 0.15, **KERNEL, "split": split, "examples": count}
-        outputs = {
-            "examples": str(root / split),
-            "manifest": str(root / f"{split}_manifest.csv"),
-            "balls": str(root / f"{split}_balls.csv"),
-        }
-        jobs.metaballs_examples({}, outputs, params, 1)
-        files |= {f"{split}_dir": outputs["examples"]}
-        files |= {f"{split}_{k}": outputs[k] for k in ("manifest", "balls")}
-    checkpoints = []
-    for variant in VARIANTS:
-        params = {"seed": 1, "device": "cpu", "width": WIDTH, "variant": variant, "ngf": 4}
-        params |= {"l1_weight": 100.0, "flips": False, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-        params |= {"lr_schedule": "constant", "ndf": 4}
-        params |= {"gan_weight": 1.0 if variant in GAN_VARIANTS else 0.0}
-        checkpoints.append(str(root / f"{variant}.pt"))
-        outputs = {"checkpoint": checkpoints[-1], "loss": str(root / f"{variant}.csv")}
-        jobs.metaballs_train(files, outputs, params, 1)
+    scene = {"seed": 1, "width": WIDTH, "balls": [20, 200], "family": "cluster"}
+    scene |= {"packing": 0.15, **KERNEL}
+    files = write_splits(root, scene, {"train": 2, "val": 1, "test": 2})
+    checkpoints = train_variants(files, root, WIDTH)
     onnx = [str(root / "onnx" / f"{v}.onnx") for v in VARIANTS]
     inputs = {"test_balls": files["test_balls"], "checkpoints": checkpoints}
     jobs.metaballs_deploy(inputs, {"onnx": onnx, "table": str(root / "d.csv")}, KERNEL, 1)
@@ -64,7 +49,7 @@ def test_the_scale_job_measures_every_renderer_at_every_count_and_width(shipped,
 
     rows = io.read_csv(outputs["rows"])
     renderers = {(s.renderer, s.setting) for s in scale.baselines()} | {(scale.EXACT, "reference")}
-    for (count, width), part in rows.groupby(["balls", "width"]):
+    for (_, width), part in rows.groupby(["balls", "width"]):
         assert renderers <= set(zip(part.renderer, part.setting, strict=True))
         nets = part[part.renderer.isin(VARIANTS)]
         assert set(nets.renderer) == set(VARIANTS)

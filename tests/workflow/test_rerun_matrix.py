@@ -298,6 +298,30 @@ READERS: dict[str, set[str]] = {
     "metaballs.balls": {"metaballs_examples"},
     "metaballs.radius": {"metaballs_demo", "metaballs_examples", "metaballs_viewer"},
     "metaballs.user_scenes": set(),
+    # The field's kernel: every job that builds a scene; support and sharpness only for a
+    # kernel of finite support (the smoke config's is the inverse square).
+    "metaballs.kernel.name": {
+        "metaballs_demo",
+        "metaballs_deploy",
+        "metaballs_equal_quality",
+        "metaballs_evaluate",
+        "metaballs_examples",
+        "metaballs_user_scenes",
+        "metaballs_viewer",
+    },
+    "metaballs.kernel.support": set(),
+    "metaballs.kernel.sharpness": set(),
+    "metaballs.family": {"metaballs_examples"},
+    "metaballs.packing": set(),  # the cluster family's only
+    # The scale study's rules are not in the smoke DAG (their lists are empty there); a
+    # change that adds them adds jobs, rerunning none.
+    "metaballs_scale.balls": set(),
+    "metaballs_scale.widths": set(),
+    "metaballs_scale.scenes": set(),
+    "metaballs_scale.repeats": set(),
+    "metaballs_scale.structures": set(),
+    "metaballs_scale.ball_scale": set(),
+    "metaballs_scale.trajectory_frames": set(),
     "metaballs_model.ngf": {"metaballs_train"},
     "metaballs_model.ndf": {"metaballs_train"},
     "metaballs_model.epochs": {"metaballs_train"},
@@ -418,6 +442,11 @@ NEW_VALUES = {
     "metaballs_model.lr_schedule": "constant",
     "metaballs_model.timing_balls": [3, 21],
     "metaballs.user_scenes": "",
+    "metaballs.kernel.name": "gaussian",
+    "metaballs.family": "cluster",
+    "metaballs_scale.widths": [64],
+    "metaballs_scale.structures": ["1a28"],
+    "metaballs_scale.balls": [10],
     "simplification.cases": ["head"],
     "simplification.user_assets": {
         "crate": {"path": "results/examples/crate.obj", "triangles": 120}

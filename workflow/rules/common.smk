@@ -77,7 +77,7 @@ def report_studies(wildcards):
         path
         for method in neurender.methods.METHODS
         for study in method.studies
-        for path in (study.csv, study.sidecar)
+        for path in (study.csv, study.sidecar, *study.figures)
     ]
     return list(dict.fromkeys(files))
 

@@ -39,9 +39,10 @@ def frame_time_vs_balls(
     renderers: Mapping[str, MetaballRenderer], cfg: Mapping, repeats: int = 5
 ) -> pd.DataFrame:
     """Rows ``balls, model, engine, ms_per_frame, near_plane`` for a random scene of each
-    of ``timing_balls`` (centres :data:`MARGIN` inside the depth range) (``seed``, ``radius`` [min, max], ``kernel``, ``width``): the ray
-    marcher, then each network; ``near_plane`` is the share of the frame the near plane
-    cuts (:func:`neurender.metaballs.user_scenes.near_plane_cut`)."""
+    of ``timing_balls`` (``seed``, ``radius`` [min, max], ``kernel``, ``width``; centres
+    :data:`MARGIN` inside the depth range): the ray marcher, then each network;
+    ``near_plane`` is the share of the frame the near plane cuts
+    (:func:`neurender.metaballs.user_scenes.near_plane_cut`)."""
     rows = []
     for n in cfg["timing_balls"]:
         gen = torch_generator(cfg["seed"], "timing", n)
