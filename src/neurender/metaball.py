@@ -191,18 +191,17 @@ def field(points: torch.Tensor, scene: Scene) -> tuple[torch.Tensor, torch.Tenso
     total = f.sum(1)
     if not scene.kernel.finite:
         return total, d2.min(1).values.sqrt() * (1 - total.clamp(max=THRESHOLD).sqrt())
-    return total, _finite_step(total, d2.sqrt(), scene.reach, scene.kernel.lipschitz / scene.radii)
-
-
-def _finite_step(
-    total: torch.Tensor, dist: torch.Tensor, reach: torch.Tensor, slope_bound: torch.Tensor
-) -> torch.Tensor:
-    """The safe step of a kernel of finite support (module docstring) from the field
-    ``total (R,)`` and the distances ``dist (R, B)`` to balls of ``reach (B,)`` and slope
-    bound ``slope_bound (B,)``."""
+    dist, reach = d2.sqrt(), scene.reach
     inside = dist < reach
     free = torch.where(inside, math.inf, dist - reach).amin(1)
-    slope = torch.where(inside, slope_bound, 0.0).sum(1)
+    slope = torch.where(inside, scene.kernel.lipschitz / scene.radii, 0.0).sum(1)
+    return total, finite_step(total, free, slope)
+
+
+def finite_step(total: torch.Tensor, free: torch.Tensor, slope: torch.Tensor) -> torch.Tensor:
+    """The safe step ``(R,)`` of a kernel of finite support (module docstring) from the
+    field ``total``, the distance ``free`` to the nearest support not holding the point
+    and the summed slope bound ``slope`` of the supports holding it (each ``(R,)``)."""
     gap = (THRESHOLD - total).clamp(min=0)
     return torch.minimum(free, torch.where(slope > 0, gap / slope.clamp(min=1e-30), math.inf))
 

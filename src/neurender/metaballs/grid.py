@@ -20,7 +20,7 @@ import math
 
 import torch
 
-from neurender.metaball import BISECTIONS, THRESHOLD, Scene, attributes, bisect
+from neurender.metaball import BISECTIONS, THRESHOLD, Scene, attributes, bisect, finite_step
 
 #: The most cells a grid holds (int64 offsets, float64 bounds: 16 bytes a cell); a scene
 #: whose reach would need more gets larger cells.
@@ -126,9 +126,7 @@ class BallGrid:
         )
         bound = s.kernel.lipschitz / s.radii[ball]
         slope = torch.zeros_like(total).index_add_(0, owner, torch.where(inside, bound, 0.0))
-        gap = (THRESHOLD - total).clamp(min=0)
-        safe = torch.minimum(free, torch.where(slope > 0, gap / slope.clamp(min=1e-30), math.inf))
-        return total, torch.minimum(safe, self._to_exit(points, dirs))
+        return total, torch.minimum(finite_step(total, free, slope), self._to_exit(points, dirs))
 
     def _to_exit(self, points: torch.Tensor, dirs: torch.Tensor) -> torch.Tensor:
         """``(R,)`` distance along unit ``dirs`` from ``points`` to just past the far face

@@ -44,13 +44,10 @@ def real_scenes(
             fit = framing.fit_framing(atoms.positions, atoms.radii, ball_scale)
             out[name] = _scene(atoms, fit, kernel)
         elif name == "adk_dims":
-            every = molecules.read_frames(molecules.STRUCTURES / molecules.TRAJECTORY)
-            stacked = np.concatenate([a.positions for a in every])
-            radii = np.concatenate([a.radii for a in every])
-            fit = framing.fit_framing(stacked, radii, ball_scale)
+            every = trajectory(kernel, ball_scale)
             picks = np.linspace(0, len(every) - 1, min(frames, len(every))).round().astype(int)
             for k in picks:
-                out[f"adk_dims frame {k}"] = _scene(every[k], fit, kernel)
+                out[f"adk_dims frame {k}"] = every[k]
         elif name == "dam_break":
             atoms = molecules.read_particles(
                 molecules.STRUCTURES / molecules.FLUID, molecules.FLUID_RADIUS, True
