@@ -275,6 +275,10 @@ def train_epoch(
     sums: dict[str, float] = {}
     for step, batch in enumerate(loader):
         batch = to_device(batch, device)
+        if run.adversary is not None:
+            # Through the adversary the model's loss needs gradients of its input only: its
+            # weights' would be dropped before its own step (set before the graph is built).
+            run.adversary.module.requires_grad_(False)
         loss, logs, *aux = loss_fn(run.model, batch)
         _check_finite(loss, "training", run.epoch, step, checkpoint_path)
         run.optimizer.zero_grad(set_to_none=True)
@@ -282,11 +286,12 @@ def train_epoch(
         run.optimizer.step()
         run.scheduler.step()
         if run.adversary is not None:
+            run.adversary.module.requires_grad_(True)
             adv_loss, adv_logs = run.adversary.loss_fn(
                 run.adversary.module, batch, aux[0] if aux else None
             )
             _check_finite(adv_loss, "adversary", run.epoch, step, checkpoint_path)
-            run.adv_optimizer.zero_grad(set_to_none=True)  # drops what the model's loss left
+            run.adv_optimizer.zero_grad(set_to_none=True)
             adv_loss.backward()
             run.adv_optimizer.step()
             logs = {**logs, "adversary_loss": adv_loss.item(), **adv_logs}

@@ -20,9 +20,13 @@ rule simplification_prepare:
         "results/logs/simplification_prepare/{case}.log",
     benchmark:
         "results/benchmarks/simplification_prepare/{case}.tsv"
+    # Before DeepPRT's short training jobs, which then fill the gaps.
+    priority: 12
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: the cases' jobs run side by side, which keeps both cores busier than one
+    # two-thread job at a time (those used 1.2 to 1.5 of the 2 cores in the default run).
+    threads: 1
     resources:
         **scheduler_resources("simplification_prepare"),
     params:
@@ -51,6 +55,8 @@ rule simplification_optimise:
         "results/logs/simplification_optimise/{case}.log",
     benchmark:
         "results/benchmarks/simplification_optimise/{case}.tsv"
+    # Before DeepPRT's short training jobs, which then fill the gaps.
+    priority: 12
     conda:
         "../envs/neurender.yaml"
     threads: config["simplification"]["threads"]
