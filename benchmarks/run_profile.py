@@ -9,9 +9,10 @@ python benchmarks/run_profile.py results benchmarks/results/default_run_profile 
 
 Writes ``<out>.csv``, tidy: ``rule, stage, job, metric, value`` with the metrics
 ``wall_s``, ``cpu_s`` (user + system seconds of the job's processes) and ``max_rss_mb``,
-one row per job and metric; and ``<out>.json``: the run's command, the commit of the
-checkout the results lie in, the machine and, from the time report, ``wall_min``,
-``cpu_min`` and ``max_rss_mb`` of the whole run.
+one row per job and metric; ``<out>_stages.csv``: per stage its jobs, their summed wall
+and CPU minutes and largest peak memory (:func:`by_stage`); and ``<out>.json``: the run's
+command, the commit of the checkout the results lie in, the machine and, from the time
+report, ``wall_min``, ``cpu_min`` and ``max_rss_mb`` of the whole run.
 """
 
 from __future__ import annotations
@@ -108,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = job_rows(args.results)
     io.write_csv(f"{args.out}.csv", rows)
+    io.write_csv(f"{args.out}_stages.csv", by_stage(rows).reset_index())
     sidecar = {
         "command": args.command,
         "profile_command": " ".join(["python", "benchmarks/run_profile.py", *argv]),

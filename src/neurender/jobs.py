@@ -24,6 +24,7 @@ from typing import Any
 
 from neurender import io
 from neurender.logs import log_to_file
+from neurender.profiling import run_profiled
 
 log = logging.getLogger(__name__)
 
@@ -33,9 +34,13 @@ Job = Callable[[Mapping[str, Any], Mapping[str, Any], Mapping[str, Any], int], N
 
 
 def run(smk: Any, job: Job) -> None:
-    """Run ``job`` for the ``snakemake`` object of a rule's script, logging to its log file."""
+    """Run ``job`` for the ``snakemake`` object of a rule's script, logging to its log file
+    (under cProfile when ``NEURENDER_PROFILE`` names a folder: :mod:`neurender.profiling`)."""
     log_to_file(smk.log[0])
-    job(_files(smk.input), _files(smk.output), smk.params.cfg, smk.threads)
+    run_profiled(
+        lambda: job(_files(smk.input), _files(smk.output), smk.params.cfg, smk.threads),
+        smk.log[0],
+    )
 
 
 def _files(named: Any) -> dict[str, str | list[str]]:

@@ -79,6 +79,9 @@ def test_main_writes_the_tidy_csv_and_the_sidecar(results, tmp_path):
     profile.main([str(results), str(out), "--time", str(tmp_path / "run.time"), "--cores", "2"])
     rows = pd.read_csv(f"{out}.csv")
     assert list(rows.columns) == ["rule", "stage", "job", "metric", "value"]
+    stages = pd.read_csv(f"{out}_stages.csv").set_index("stage")
+    assert stages.loc[profile.methods.rule("prt_train").stage, "jobs"] == 2
+    assert stages["wall_min"].sum() == pytest.approx(210 / 60)
     sidecar = json.loads(Path(f"{out}.json").read_text())
     assert sidecar["whole_run"]["cpu_min"] == pytest.approx(100.0)
     assert sidecar["machine"]["snakemake_cores"] == 2

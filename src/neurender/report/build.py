@@ -168,7 +168,11 @@ def _embed_image(path: Path) -> str:
     return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
-def _headline_rows(method: Method, tables: dict[str, pd.DataFrame]) -> list[dict]:
+def headline_values(method: Method, tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """``method``'s headline numbers (its ``headlines`` table) from its run's tables
+    (``tables``: name, as :func:`table_name` gives it, to frame), each beside the paper's:
+    columns ``method, label, ours, paper, source`` (NaN where a table or a paper's number is
+    missing), in the headlines' order."""
     published = method.table("paper_numbers")
     rows = []
     for h in method.table("headlines").itertuples():
@@ -185,15 +189,20 @@ def _headline_rows(method: Method, tables: dict[str, pd.DataFrame]) -> list[dict
                 & (published.metric == h.paper_metric)
             ]
             paper = float(sel.value.iloc[0]) if len(sel) else math.nan
-        rows.append(
-            {
-                "label": h.label,
-                "ours": _format_value(ours),
-                "paper": _format_value(paper) if h.paper_source else "not reported",
-                "source": h.paper_source,
-            }
-        )
-    return rows
+        rows.append((method.key, h.label, ours, paper, h.paper_source))
+    return pd.DataFrame(rows, columns=["method", "label", "ours", "paper", "source"])
+
+
+def _headline_rows(method: Method, tables: dict[str, pd.DataFrame]) -> list[dict]:
+    return [
+        {
+            "label": h.label,
+            "ours": _format_value(h.ours),
+            "paper": _format_value(h.paper) if h.source else "not reported",
+            "source": h.source,
+        }
+        for h in headline_values(method, tables).itertuples()
+    ]
 
 
 def _targets(table: pd.DataFrame | None) -> dict:

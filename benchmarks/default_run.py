@@ -1,0 +1,77 @@
+"""A run's results kept as a committed study: every method's headline numbers (its report
+summary's rows) and targets, with the command and commit that made them, so that the
+README and the method pages quote a file rather than a run nobody can open.
+
+/usr/bin/time -v -o run.time snakemake --cores 2 results/report.html
+python benchmarks/default_run.py results benchmarks/results/default_run \\
+    --command "snakemake --cores 2 results/report.html"
+
+Writes ``<out>_headlines.csv`` (``method, label, ours, paper, source``: the report's
+headline rows, :func:`neurender.report.build.headline_values`), ``<out>_targets.csv``
+(every method's ``targets.csv``: ``method, subject, check, measured, met``) and
+``<out>.json``: the command, its config files, the commit of the checkout the results lie
+in and the machine. Time and memory of the same run: ``benchmarks/run_profile.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from neurender import io, methods
+from neurender.plan import load_config
+from neurender.provenance import git_state, machine
+from neurender.report.build import headline_values, table_name
+
+
+def run_tables(results: Path, configfiles: list[str]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The headline rows and the targets of every method whose tables lie under
+    ``results`` (the parent of ``results/<method>/``) for the config of ``configfiles``."""
+    cfg = load_config(configfiles)
+    headlines, targets = [], []
+    for method in methods.METHODS:
+        files = [results.parent / t for t in method.report_inputs(cfg).tables]
+        tables = {table_name(f, method.key): io.read_csv(f) for f in files if f.is_file()}
+        if not tables:
+            continue
+        headlines.append(headline_values(method, tables))
+        if "targets" in tables:
+            targets.append(tables["targets"])
+    if not headlines:
+        raise FileNotFoundError(f"no method's tables under {results}")
+    empty = pd.DataFrame(columns=["method", "subject", "check", "measured", "met"])
+    return pd.concat(headlines, ignore_index=True), pd.concat(targets or [empty])
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("results", type=Path, help="the run's results folder")
+    parser.add_argument("out", type=Path, help="output path without suffix")
+    parser.add_argument("--command", required=True, help="the command that made the run")
+    parser.add_argument("--configfile", nargs="*", default=[], help="the run's --configfile")
+    parser.add_argument("--cores", type=int, default=None, help="the cores it was given")
+    argv = sys.argv[1:] if argv is None else argv
+    args = parser.parse_args(argv)
+    headlines, targets = run_tables(args.results, args.configfile)
+    io.write_csv(f"{args.out}_headlines.csv", headlines)
+    io.write_csv(f"{args.out}_targets.csv", targets)
+    sidecar = {
+        "command": args.command,
+        "configfiles": ["config/config.yaml", *args.configfile],
+        "profile_command": " ".join(["python", "benchmarks/default_run.py", *argv]),
+        **git_state(args.results.resolve().parent),
+        "machine": machine(args.cores),
+    }
+    with io.atomic_path(f"{args.out}.json") as tmp:
+        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+    met = targets["met"].astype(str).str.lower() == "true"
+    print(f"{len(headlines)} headline rows; targets met {int(met.sum())} of {len(targets)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
