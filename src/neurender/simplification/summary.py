@@ -16,10 +16,10 @@ def with_timings(
     cores: int,
 ) -> pd.DataFrame:
     """Add each case's optimisation time (sum of its steps) and the stage's total on
-    ``cores`` cores (the workflow's, which the preparation and the evaluation use), in
-    seconds: preparation and this evaluation (all cores each) plus the optimisation loops
-    weighted by their share of the cores (``optimise_threads`` each, the config's
-    ``simplification.threads``; one-thread jobs run side by side)."""
+    ``cores`` cores (the workflow's, which the evaluation uses), in seconds: this
+    evaluation (all cores) plus each job weighted by its share of the cores: the
+    one-thread preparations and the optimisation loops (``optimise_threads`` each, the
+    config's ``simplification.threads``), which run side by side."""
     extra = [
         {
             "case": loss["case"].iloc[0],
@@ -31,9 +31,8 @@ def with_timings(
     extra.append({"case": "all", "quantity": "evaluate_seconds", "value": evaluate_s})
     timed = pd.concat([stats, pd.DataFrame(extra)], ignore_index=True)
     seconds = timed["quantity"].str.endswith("_seconds")
-    share = np.where(
-        timed["quantity"] == "optimise_seconds", min(optimise_threads / cores, 1.0), 1.0
-    )
+    threads = timed["quantity"].map({"optimise_seconds": optimise_threads, "prepare_seconds": 1})
+    share = np.minimum(threads.fillna(cores) / cores, 1.0)
     total = {
         "case": "all",
         "quantity": "stage_seconds",
