@@ -8,9 +8,11 @@ python benchmarks/default_run.py results benchmarks/results/default_run \\
 
 Writes ``<out>_headlines.csv`` (``method, label, ours, paper, source``: the report's
 headline rows, :func:`neurender.report.build.headline_values`), ``<out>_targets.csv``
-(every method's ``targets.csv``: ``method, subject, check, measured, met``) and
-``<out>.json``: the command, its config files, the commit of the checkout the results lie
-in and the machine. Time and memory of the same run: ``benchmarks/run_profile.py``.
+(every method's ``targets.csv``: ``method, subject, check, measured, met``), a copy of
+every table the report shows under ``<out>/`` (``<out>/<method>/metrics.csv`` for
+``results/<method>/metrics.csv``; a few hundred kB) and ``<out>.json``: the command,
+its config files, the commit of the checkout the results lie in and the machine. Time and
+memory of the same run: ``benchmarks/run_profile.py``.
 """
 
 from __future__ import annotations
@@ -28,14 +30,28 @@ from neurender.provenance import git_state, machine
 from neurender.report.build import headline_values, table_name
 
 
+def report_tables(results: Path, configfiles: list[str]) -> dict[str, list[Path]]:
+    """Each method's report tables that lie under ``results`` (the report's list for the
+    config of ``configfiles``), by method key."""
+    cfg = load_config(configfiles)
+    return {
+        method.key: [
+            results.parent / t
+            for t in method.report_inputs(cfg).tables
+            if (results.parent / t).is_file()
+        ]
+        for method in methods.METHODS
+    }
+
+
 def run_tables(results: Path, configfiles: list[str]) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The headline rows and the targets of every method whose tables lie under
     ``results`` (the parent of ``results/<method>/``) for the config of ``configfiles``."""
-    cfg = load_config(configfiles)
+    found = report_tables(results, configfiles)
     headlines, targets = [], []
     for method in methods.METHODS:
-        files = [results.parent / t for t in method.report_inputs(cfg).tables]
-        tables = {table_name(f, method.key): io.read_csv(f) for f in files if f.is_file()}
+        files = found[method.key]
+        tables = {table_name(f, method.key): io.read_csv(f) for f in files}
         if not tables:
             continue
         headlines.append(headline_values(method, tables))
@@ -59,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     headlines, targets = run_tables(args.results, args.configfile)
     io.write_csv(f"{args.out}_headlines.csv", headlines)
     io.write_csv(f"{args.out}_targets.csv", targets)
+    for files in report_tables(args.results, args.configfile).values():
+        for f in files:
+            io.copy_file(f, args.out / f.relative_to(args.results))
     sidecar = {
         "command": args.command,
         "configfiles": ["config/config.yaml", *args.configfile],

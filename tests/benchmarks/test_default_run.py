@@ -63,6 +63,9 @@ def test_main_writes_both_tables_and_the_sidecar(results, tmp_path):
     default_run.main([str(results), str(out), "--command", "snakemake x", "--cores", "2"])
     assert len(pd.read_csv(f"{out}_headlines.csv")) == len(methods.by_key("ndr").table("headlines"))
     assert pd.read_csv(f"{out}_targets.csv").met.tolist() == [True]
+    for table in ("metrics", "targets"):  # the report's tables, copied as they are
+        copied = (out / "ndr" / f"{table}.csv").read_text()
+        assert copied == (results / "ndr" / f"{table}.csv").read_text()
     sidecar = json.loads(Path(f"{out}.json").read_text())
     assert sidecar["command"] == "snakemake x" and sidecar["configfiles"] == ["config/config.yaml"]
 
