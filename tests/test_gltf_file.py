@@ -364,3 +364,20 @@ def test_fuzz_edited_json_gives_a_clean_error_or_a_valid_mesh(tmp_path, data):
         for part in mesh.parts:
             uv = getattr(part.visual, "uv", None)
             assert uv is None or np.asarray(uv).shape == (len(part.vertices), 2)
+
+
+@pytest.mark.parametrize("count", [False, 2])
+def test_texture_coordinates_not_one_per_vertex_are_an_error_naming_the_file(tmp_path, count):
+    """A TEXCOORD accessor whose count is no integer, or not the vertices', fails cleanly
+    (hypothesis found ``"count": false``, which Python reads as 0)."""
+    material = _base({"extensions": {"KHR_texture_transform": TRANSFORM | {"texCoord": 1}}})
+    required = ["KHR_texture_transform"]
+    tree = json.loads(_quad(tmp_path, material, used=required, required=required).read_text())
+    index = tree["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"]
+    tree["accessors"][index]["count"] = count
+    path = tmp_path / "edited.gltf"
+    path.write_text(json.dumps(tree))
+    expected = "expected an integer of at least 1" if count is False else "one per vertex"
+    with pytest.raises(AssetFileError, match=expected) as err:
+        mesh_file.read(path, materials=True)
+    assert str(path) in str(err.value)

@@ -372,6 +372,12 @@ def _with_coordinates(path: Path, tree: dict) -> dict | None:
                     f"{path}: {where}: {name} (accessor {accessor}) holds {uv.shape[1]} "
                     f"components per vertex; expected 2 (VEC2)"
                 )
+            vertices = len(_attribute(path, tree, buffers, primitive, "POSITION", where))
+            if len(uv) != vertices:
+                raise AssetFileError(
+                    f"{path}: {where}: {name} (accessor {accessor}) holds {len(uv)} entries; "
+                    f"expected one per vertex of its POSITION ({vertices})"
+                )
             uv = apply(matrix, uv)
             target = out["meshes"][m]["primitives"][p]
             target["attributes"]["TEXCOORD_0"] = len(tree.get("accessors", [])) + len(blobs)
@@ -470,6 +476,8 @@ def _view_bytes(path: Path, tree: dict, buffers: dict, view: dict) -> bytes:
 def _accessor(path: Path, tree: dict, buffers: dict, accessor: dict) -> np.ndarray:
     dtype, width = np.dtype(_DTYPES[accessor["componentType"]]), _WIDTHS[accessor["type"]]
     count = accessor["count"]
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise ValueError(f"count {count!r}: expected an integer of at least 1")
     values = np.zeros((count, width), dtype)
     if "bufferView" in accessor:
         view = tree["bufferViews"][accessor["bufferView"]]

@@ -305,9 +305,14 @@ def _trimesh_parts(path: Path, materials: bool) -> list[trimesh.Trimesh]:
     if not meshes:
         found = ", ".join(f"{type(g).__name__} of {len(g.vertices)} vertices" for g in geometries)
         raise AssetFileError(f"{path}: no faces; found {found or 'no geometry'}")
-    if materials:
-        for mesh in meshes:
+    for mesh in meshes:
+        if materials:
             _file_material(path, mesh, textures)
+        uv = getattr(mesh.visual, "uv", None)
+        if uv is not None and len(uv) != len(mesh.vertices):
+            # No texture reads them (a textured material's were checked above): drop them
+            # rather than keep coordinates that are not one per vertex.
+            mesh.visual = trimesh.visual.ColorVisuals(mesh)
     return meshes
 
 
