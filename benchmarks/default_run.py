@@ -18,7 +18,6 @@ memory of the same run: ``benchmarks/run_profile.py``.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -26,7 +25,7 @@ import pandas as pd
 
 from neurender import io, methods
 from neurender.plan import load_config
-from neurender.provenance import git_state, machine
+from neurender.provenance import write_study_sidecar
 from neurender.report.build import headline_values, table_name
 
 
@@ -44,10 +43,9 @@ def report_tables(results: Path, configfiles: list[str]) -> dict[str, list[Path]
     }
 
 
-def run_tables(results: Path, configfiles: list[str]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The headline rows and the targets of every method whose tables lie under
-    ``results`` (the parent of ``results/<method>/``) for the config of ``configfiles``."""
-    found = report_tables(results, configfiles)
+def run_tables(found: dict[str, list[Path]], results: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The headline rows and the targets of every method with report tables in ``found``
+    (:func:`report_tables` of ``results``)."""
     headlines, targets = [], []
     for method in methods.METHODS:
         files = found[method.key]
@@ -72,21 +70,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cores", type=int, default=None, help="the cores it was given")
     argv = sys.argv[1:] if argv is None else argv
     args = parser.parse_args(argv)
-    headlines, targets = run_tables(args.results, args.configfile)
+    found = report_tables(args.results, args.configfile)
+    headlines, targets = run_tables(found, args.results)
     io.write_csv(f"{args.out}_headlines.csv", headlines)
     io.write_csv(f"{args.out}_targets.csv", targets)
-    for files in report_tables(args.results, args.configfile).values():
+    for files in found.values():
         for f in files:
             io.copy_file(f, args.out / f.relative_to(args.results))
-    sidecar = {
-        "command": args.command,
-        "configfiles": ["config/config.yaml", *args.configfile],
-        "profile_command": " ".join(["python", "benchmarks/default_run.py", *argv]),
-        **git_state(args.results.resolve().parent),
-        "machine": machine(args.cores),
-    }
-    with io.atomic_path(f"{args.out}.json") as tmp:
-        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+    write_study_sidecar(
+        f"{args.out}.json",
+        args.command,
+        "benchmarks/default_run.py",
+        argv,
+        args.results.resolve().parent,
+        args.cores,
+        configfiles=["config/config.yaml", *args.configfile],
+    )
     met = targets["met"].astype(str).str.lower() == "true"
     print(f"{len(headlines)} headline rows; targets met {int(met.sum())} of {len(targets)}")
     return 0

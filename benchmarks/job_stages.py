@@ -16,7 +16,6 @@ commit of the checkout the profiles were made in and the machine.
 from __future__ import annotations
 
 import argparse
-import json
 import pstats
 import sys
 from pathlib import Path
@@ -25,7 +24,7 @@ import pandas as pd
 
 from neurender import io
 from neurender.profiling import stage_seconds
-from neurender.provenance import git_state, machine
+from neurender.provenance import write_study_sidecar
 
 
 def job_stages(results: Path, profiles: Path) -> pd.DataFrame:
@@ -61,14 +60,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     table = job_stages(args.results, args.profiles)
     io.write_csv(f"{args.out}.csv", table)
-    sidecar = {
-        "command": args.command,
-        "profile_command": " ".join(["python", "benchmarks/job_stages.py", *argv]),
-        **git_state(args.results.resolve().parent),
-        "machine": machine(args.cores),
-    }
-    with io.atomic_path(f"{args.out}.json") as tmp:
-        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+    write_study_sidecar(
+        f"{args.out}.json",
+        args.command,
+        "benchmarks/job_stages.py",
+        argv,
+        args.results.resolve().parent,
+        args.cores,
+    )
     print(table.pivot_table(index="stage", columns="job", values="seconds").round(1))
     return 0
 

@@ -18,7 +18,6 @@ report, ``wall_min``, ``cpu_min`` and ``max_rss_mb`` of the whole run.
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 from pathlib import Path
@@ -26,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from neurender import io, methods
-from neurender.provenance import git_state, machine
+from neurender.provenance import write_study_sidecar
 
 #: The lines of ``/usr/bin/time -v``'s report this reads, by the name they are given here.
 TIME_FIELDS = {
@@ -110,16 +109,16 @@ def main(argv: list[str] | None = None) -> int:
     rows = job_rows(args.results)
     io.write_csv(f"{args.out}.csv", rows)
     io.write_csv(f"{args.out}_stages.csv", by_stage(rows).reset_index())
-    sidecar = {
-        "command": args.command,
-        "profile_command": " ".join(["python", "benchmarks/run_profile.py", *argv]),
-        **git_state(args.results.resolve().parent),
-        "machine": machine(args.cores),
-    }
-    if args.time is not None:
-        sidecar["whole_run"] = whole_run(args.time.read_text())
-    with io.atomic_path(f"{args.out}.json") as tmp:
-        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+    extra = {} if args.time is None else {"whole_run": whole_run(args.time.read_text())}
+    write_study_sidecar(
+        f"{args.out}.json",
+        args.command,
+        "benchmarks/run_profile.py",
+        argv,
+        args.results.resolve().parent,
+        args.cores,
+        **extra,
+    )
     print(by_stage(rows).round(1).to_string())
     return 0
 

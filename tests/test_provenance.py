@@ -154,3 +154,16 @@ def test_differences_name_commit_dirt_packages_and_config_keys_never_the_times()
         "machine.cpu_model: CPU X -> CPU Y",
         "gpus: none -> NVIDIA H200",
     ]
+
+
+def test_study_sidecar_names_its_command_script_commit_machine_and_extra_keys(tmp_path):
+    path = tmp_path / "study.json"
+    provenance.write_study_sidecar(
+        path, "snakemake x", "benchmarks/s.py", ["a", "b"], tmp_path, 2, note="n"
+    )
+    sidecar = json.loads(path.read_text())
+    assert sidecar["command"] == "snakemake x"
+    assert sidecar["profile_command"] == "python benchmarks/s.py a b"
+    assert sidecar["commit"] is None  # tmp_path is no git checkout
+    assert sidecar["machine"]["snakemake_cores"] == 2 and sidecar["note"] == "n"
+    assert [p.name for p in tmp_path.iterdir()] == ["study.json"]  # no temporary file left

@@ -125,6 +125,29 @@ def machine(cores: int | None) -> dict[str, Any]:
     }
 
 
+def write_study_sidecar(
+    path: str | Path,
+    command: str,
+    script: str,
+    argv: Sequence[str],
+    checkout: str | Path,
+    cores: int | None,
+    **extra: Any,
+) -> None:
+    """A committed study's JSON sidecar, written atomically: the ``command`` that made its
+    inputs, the ``script`` and ``argv`` that made the file, the commit of the ``checkout``
+    they came from, the machine (:func:`machine`) and ``extra`` keys."""
+    sidecar = {
+        "command": command,
+        "profile_command": " ".join(["python", script, *argv]),
+        **git_state(checkout),
+        "machine": machine(cores),
+        **extra,
+    }
+    with io.atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+
+
 def gpus() -> list[dict[str, str]]:
     """Every GPU ``nvidia-smi`` lists (name, memory, driver); none without ``nvidia-smi``
     or when it fails. CUDA is never initialised here."""

@@ -45,7 +45,7 @@ def results(tmp_path):
 
 
 def test_headlines_are_the_reports_rows_with_the_runs_values(results):
-    headlines, targets = default_run.run_tables(results, [])
+    headlines, targets = default_run.run_tables(default_run.report_tables(results, []), results)
     assert set(headlines.method) == {"ndr"}  # methods without tables are left out
     ndr = headlines.set_index("label")
     labels = list(methods.by_key("ndr").table("headlines").label)
@@ -72,4 +72,5 @@ def test_main_writes_both_tables_and_the_sidecar(results, tmp_path):
 
 def test_a_folder_without_tables_is_an_error_naming_it(tmp_path):
     with pytest.raises(FileNotFoundError, match=str(tmp_path)):
-        default_run.run_tables(tmp_path / "results", [])
+        results = tmp_path / "results"
+        default_run.run_tables(default_run.report_tables(results, []), results)

@@ -79,11 +79,12 @@ rule prt_transfer:
         "results/logs/prt_transfer/{object}_{split}.log",
     benchmark:
         "results/benchmarks/prt_transfer/{object}_{split}.tsv"
+    # DeepPRT's ground truth before the short jobs that fill the gaps.
     priority: 10
     conda:
         "../envs/neurender.yaml"
-    # One thread: the objects' and splits' jobs run side by side, which keeps both cores busier than one
-    # two-thread job at a time (those used 1.2 to 1.5 of the 2 cores in the default run).
+    # One thread: the objects' and splits' jobs run side by side, which keeps both cores
+    # busier than one two-thread job at a time (those used 1.2 to 1.5 of 2 in the default run).
     threads: 1
     resources:
         **scheduler_resources("prt_transfer"),
