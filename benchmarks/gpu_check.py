@@ -40,7 +40,7 @@ from torch import nn
 from torch.utils.data import Dataset
 
 from neurender import train
-from neurender.metaballs.method import GAN_STEP_COST
+from neurender.metaballs.method import gan_step_cost
 from neurender.method import unet_work
 from neurender.nn.inference import OnnxNetwork, export_onnx
 from neurender.nn.unet import count_parameters
@@ -169,7 +169,7 @@ def metaballs_check(data: dict, count: int, dry: bool, variant: str) -> Check:
     gan = variant == "pix2pix"
     discriminator = build_discriminator(ngf, variant) if gan else None
     adversary = train.Adversary(discriminator, discriminator_loss) if gan else None
-    units = side * side * ngf**2 * (GAN_STEP_COST if gan else 1.0) / 1e9
+    units = side * side * ngf**2 * (gan_step_cost(ngf, ngf) if gan else 1.0) / 1e9
     return Check(
         f"metaballs_{variant}",
         "metaballs_train",

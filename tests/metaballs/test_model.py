@@ -1,7 +1,7 @@
 import pytest
 import torch
 
-from neurender.metaballs import VARIANTS, gbuffers, model
+from neurender.metaballs import DEMO_VARIANTS, VARIANTS, gbuffers, model, trained_variants
 
 
 def test_residual_generator_starts_at_its_prior():
@@ -34,3 +34,10 @@ def test_unknown_variant_is_named():
 def test_width_not_a_power_of_two_is_refused():
     with pytest.raises(ValueError, match="width=48.*power of two"):
         model.build_generator(48, 4, "pix2pix")
+
+
+def test_trained_variants_keep_the_demos_and_the_table_order():
+    assert trained_variants(["sphere_residual", "l1only"]) == VARIANTS
+    assert trained_variants(["pix2pix"]) == DEMO_VARIANTS
+    with pytest.raises(ValueError, match="'gan'"):
+        trained_variants(["gan"])

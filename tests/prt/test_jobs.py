@@ -246,3 +246,100 @@ def test_each_variant_logs_its_epochs_and_previews_to_tensorboard(
     _, files = trained
     logged = tensorboard_steps(Path(files[variant, "diffuse"]["tensorboard"]).parent)
     assert logged["val/loss"] == logged["previews/prediction"] == logged["lr"] == [1]
+
+
+EVALUATE = {"render_resolution": 16, "glossy_exponent": 16.0, "reference_directions": 64}
+EVALUATE |= {"equal_quality_directions": [4, 16], "variants": ["paper", "shadowing"]}
+EVALUATE |= {"pca_components": 2, "ridges": [1e-3, 1e-1], "object": "head", "device": "cpu"}
+
+
+@pytest.fixture(scope="module")
+def evaluated(trained, head):
+    """Every network (the paper's glossy one too), MoMoPRT, the test references at the
+    reference's directions, and the evaluation and equal-quality jobs run as the rules run
+    them (the first on one thread, the second on two)."""
+    inputs, files = trained
+    stem = head / "variants" / "paper_glossy"
+    paper_glossy = {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx", "loss": f"{stem}_loss.csv"}
+    paper_glossy["int8"] = f"{stem}_int8.onnx"
+    params = {**CFG, **TRAIN, "material": "glossy", "variant": "paper", "residual_targets": True}
+    jobs.prt_train(inputs, paper_glossy, params, 1)
+    files = {**files, ("paper", "glossy"): paper_glossy}
+    data_jobs.prt_transfer(
+        {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},
+        {"frames": head / "test", "manifest": head / "test_manifest.csv"},
+        {**CFG, "object": "head", "split": "test", "directions": 64},
+        1,
+    )
+    momoprt = []
+    for material in ("diffuse", "glossy"):
+        out = {"model": head / f"momoprt_{material}.npz"}
+        data_jobs.prt_momoprt(inputs, out, {**CFG, **EVALUATE, "material": material}, 1)
+        momoprt.append(out["model"])
+    pairs = [(v, m) for v in EVALUATE["variants"] for m in ("diffuse", "glossy")]
+    networks = {
+        key: [files[p][name] for p in pairs]
+        for key, name in (("deepprt", "checkpoint"), ("onnx", "onnx"), ("int8", "int8"))
+    }
+    test = {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
+    light = {"light": head / "sky_sh.csv"}
+    params = {**CFG, **EVALUATE}
+    scores = {"scores": head / "scores.csv", "frames": head / "metrics_frames.csv"}
+    evaluate_inputs = {**inputs, **test, **networks, **light, "momoprt": momoprt}
+    jobs.prt_evaluate(evaluate_inputs, {**scores, "figure": head / "prediction.png"}, params, 1)
+    timed = {"metrics": head / "metrics.csv", "deployment": head / "deployment.csv"}
+    equal_inputs = {"seq": inputs["seq"], **test, **networks, **light, **scores}
+    jobs.prt_equal_quality(equal_inputs, timed, params, 2)
+    return {name: io.read_csv(path) for name, path in {**scores, **timed}.items()}
+
+
+def test_evaluation_scores_every_network_momoprt_and_the_ground_truths_on_val_and_test(
+    evaluated,
+):
+    frames_ = evaluated["frames"]
+    ssim = frames_[frames_.metric == "ssim_diffuse"]
+    # Both splits' frames (one val, two test) for every network, int8 graph and MoMoPRT;
+    # the independent ground-truth estimates on the test frames only.
+    networks = {"DeepPRT", "DeepPRT shadowing", "MoMoPRT"}
+    networks |= {f"{m} int8" for m in ("DeepPRT", "DeepPRT shadowing")}
+    for model in networks:
+        rows = ssim[ssim.model == model]
+        pairs = sorted(zip(rows.split, rows.frame, strict=True))
+        assert pairs == [("test", 0), ("test", 1), ("val", 0)]
+    estimates = {"ground truth 16 dirs", "ground truth 64 dirs"}
+    assert set(ssim.model) == networks | estimates
+    assert set(ssim[ssim.model.isin(estimates)].split) == {"test"}
+    assert ssim.value.between(-1, 1).all()
+    # The means are the per-frame scores' means.
+    scores = evaluated["scores"]
+    mean = scores[(scores.model == "MoMoPRT") & (scores.metric == "ssim_diffuse")]
+    mean = mean[mean.split == "test"].value.item()
+    want = ssim[(ssim.model == "MoMoPRT") & (ssim.split == "test")].value.mean()
+    assert mean == pytest.approx(want)
+
+
+def test_every_network_records_its_training_budget(evaluated):
+    scores = evaluated["scores"]
+    budget = scores[scores.metric.str.startswith("epochs_")]
+    assert set(budget.model) == {"DeepPRT", "DeepPRT shadowing", "DeepPRT int8"} | {
+        "DeepPRT shadowing int8"
+    }
+    assert (budget.value == TRAIN["epochs"]).all() and len(budget) == 4 * 2
+
+
+def test_equal_quality_adds_only_timing_rows_to_the_scores(evaluated):
+    metrics, scores = evaluated["metrics"], evaluated["scores"]
+    pd.testing.assert_frame_equal(metrics.head(len(scores)), scores)
+    timing = metrics.iloc[len(scores) :]
+    assert set(timing.split) == {"timing"}
+    traced = set(timing[timing.model == "ground truth"].metric)
+    for d in EVALUATE["equal_quality_directions"]:
+        assert {f"gt_seconds_per_frame_{d}_dirs", f"gt_ssim_{d}_dirs"} <= traced
+    assert (timing[timing.metric.str.startswith("gt_seconds")].value > 0).all()
+
+
+def test_equal_quality_writes_a_deployment_row_per_network_and_material(evaluated):
+    deployment = evaluated["deployment"]
+    # Two variants, each float32 and int8, each diffuse and glossy.
+    assert len(deployment) == 2 * 2 * 2
+    assert deployment.network.is_unique

@@ -24,9 +24,10 @@ ROOT = Path(__file__).resolve().parents[2]
 #: Rules whose params change when a key changes: the rules that read the key. Empty for a
 #: key no job's computation reads (``gpus`` and the ``threads`` keys are resources, except
 #: where a stage's timing divides by them), and for keys that only pick inputs or shape the
-#: DAG (``prt.light``, ``prt.probes``, ``prt.experiments``, ``metaballs.user_scenes``: their
-#: jobs appear, disappear or get other input files, which other triggers rerun). Reviewed
-#: by hand when drafted from a run: each set is what the rule's job reads.
+#: DAG (``prt.light``, ``prt.probes``, ``prt.experiments``, ``metaballs.user_scenes``,
+#: ``metaballs_model.variants``: their jobs appear, disappear or get other input files, which
+#: other triggers rerun). Reviewed by hand when drafted from a run: each set is what the
+#: rule's job reads.
 READERS: dict[str, set[str]] = {
     "seed": {
         "example_assets",
@@ -42,6 +43,7 @@ READERS: dict[str, set[str]] = {
         "ndr_user_objects",
         "ndr_viewer",
         "prt_benchmark",
+        "prt_equal_quality",
         "prt_evaluate",
         "prt_geometry_image",
         "prt_noise_floor",
@@ -71,6 +73,7 @@ READERS: dict[str, set[str]] = {
         "ndr_train",
         "ndr_user_objects",
         "ndr_viewer",
+        "prt_equal_quality",
         "prt_evaluate",
         "prt_experiment",
         "prt_relight",
@@ -89,6 +92,7 @@ READERS: dict[str, set[str]] = {
     "prt.source_vertices": {"prt_geometry_image"},
     "prt.n_bands": {
         "prt_benchmark",
+        "prt_equal_quality",
         "prt_evaluate",
         "prt_experiment",
         "prt_figure",
@@ -106,9 +110,10 @@ READERS: dict[str, set[str]] = {
     "prt.frames.val": {"prt_sequence"},
     "prt.frames.test": {"prt_sequence"},
     "prt.directions": {"prt_benchmark", "prt_evaluate", "prt_noise_floor", "prt_transfer"},
-    "prt.reference_directions": {"prt_evaluate", "prt_transfer", "prt_unseen"},
+    "prt.reference_directions": {"prt_equal_quality", "prt_evaluate", "prt_transfer", "prt_unseen"},
     "prt.direction_sets": {
         "prt_benchmark",
+        "prt_equal_quality",
         "prt_evaluate",
         "prt_noise_floor",
         "prt_transfer",
@@ -116,12 +121,13 @@ READERS: dict[str, set[str]] = {
     },
     "prt.ray_offset": {
         "prt_benchmark",
+        "prt_equal_quality",
         "prt_evaluate",
         "prt_noise_floor",
         "prt_transfer",
         "prt_unseen",
     },
-    "prt.noise_floor_frames": {"prt_evaluate", "prt_noise_floor"},
+    "prt.noise_floor_frames": {"prt_equal_quality", "prt_noise_floor"},
     "prt.light": set(),
     "prt.probes": set(),
     "prt.user_probes": set(),
@@ -144,13 +150,25 @@ READERS: dict[str, set[str]] = {
     "prt_model.threads": set(),
     "prt_model.pca_components": {"prt_momoprt"},
     "prt_model.ridges": {"prt_momoprt"},
-    "prt_model.render_resolution": {"prt_evaluate", "prt_experiment", "prt_relight", "prt_unseen"},
+    "prt_model.render_resolution": {
+        "prt_equal_quality",
+        "prt_evaluate",
+        "prt_experiment",
+        "prt_relight",
+        "prt_unseen",
+    },
     "prt_model.glossy_exponent": {"prt_evaluate", "prt_unseen"},
-    "prt_model.equal_quality_directions": {"prt_evaluate", "prt_model_summary"},
+    "prt_model.equal_quality_directions": {"prt_equal_quality", "prt_model_summary"},
     "prt_model.unseen_strengths": {"prt_unseen"},
     "prt_model.unseen_frames": {"prt_unseen"},
     # The variants trained are also jobs that appear or disappear (prt_train's).
-    "prt_model.variants": {"prt_evaluate", "prt_experiment", "prt_model_summary", "prt_unseen"},
+    "prt_model.variants": {
+        "prt_equal_quality",
+        "prt_evaluate",
+        "prt_experiment",
+        "prt_model_summary",
+        "prt_unseen",
+    },
     "prt_model.shipped": {"prt_model_summary", "prt_ship"},
     "ndr.width": {
         "ndr_data",
@@ -322,6 +340,7 @@ READERS: dict[str, set[str]] = {
     "metaballs_scale.structures": set(),
     "metaballs_scale.ball_scale": set(),
     "metaballs_scale.trajectory_frames": set(),
+    "metaballs_model.variants": set(),
     "metaballs_model.ngf": {"metaballs_train"},
     "metaballs_model.ndf": {"metaballs_train"},
     "metaballs_model.epochs": {"metaballs_train"},
@@ -439,6 +458,7 @@ NEW_VALUES = {
     "metaballs.width": 64,
     "metaballs.balls": [2, 5],
     "metaballs.radius": [0.5, 1.6],
+    "metaballs_model.variants": ["pix2pix", "sphere_residual"],
     "metaballs_model.lr_schedule": "constant",
     "metaballs_model.timing_balls": [3, 21],
     "metaballs.user_scenes": "",

@@ -233,7 +233,9 @@ rule ndr_relight:
         "results/benchmarks/ndr_relight/ndr_relight.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: it times nothing, so it runs beside another job instead of alone on
+    # both cores (two threads used about 1.4 of them).
+    threads: 1
     resources:
         **scheduler_resources("ndr_relight"),
     params:
@@ -285,7 +287,9 @@ rule ndr_viewer:
         "results/benchmarks/ndr_viewer/ndr_viewer.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: it times nothing, so it runs beside another job instead of alone on
+    # both cores (two threads used about 1.4 of them).
+    threads: 1
     resources:
         **scheduler_resources("ndr_viewer"),
     params:

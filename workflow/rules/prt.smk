@@ -108,7 +108,9 @@ rule prt_noise_floor:
         "results/benchmarks/prt_noise_floor/{object}.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: it times nothing, so it runs beside another job instead of alone on
+    # both cores (two threads used about 1.4 of them).
+    threads: 1
     resources:
         **scheduler_resources("prt_noise_floor"),
         embree=1,
@@ -323,9 +325,8 @@ rule prt_evaluate:
         ),
         light=PRT_LIGHT,
     output:
-        metrics="results/prt/{object}/metrics.csv",
+        scores="results/prt/{object}/scores.csv",
         frames="results/prt/{object}/metrics_frames.csv",
-        deployment="results/prt/{object}/deployment.csv",
         figure=report(
             "results/prt/figures/{object}_prediction.png",
             category="DeepPRT",
@@ -338,7 +339,8 @@ rule prt_evaluate:
         "results/benchmarks/prt_evaluate/{object}.tsv"
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: it times nothing (prt_equal_quality times), so it runs beside another job.
+    threads: 1
     resources:
         **scheduler_resources("prt_evaluate"),
         embree=1,
@@ -346,6 +348,35 @@ rule prt_evaluate:
         cfg=prt_evaluate_params,
     script:
         "../scripts/prt_evaluate.py"
+
+
+rule prt_equal_quality:
+    input:
+        unpack(prt_test_files),
+        deepprt=prt_variant_files("pt"),
+        onnx=prt_variant_files("onnx"),
+        int8=prt_variant_files("int8.onnx"),
+        light=PRT_LIGHT,
+        scores="results/prt/{object}/scores.csv",
+        frames="results/prt/{object}/metrics_frames.csv",
+    output:
+        metrics="results/prt/{object}/metrics.csv",
+        deployment="results/prt/{object}/deployment.csv",
+    log:
+        "results/logs/prt_equal_quality/{object}.log",
+    benchmark:
+        "results/benchmarks/prt_equal_quality/{object}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    # Every core: the networks and the ray tracer are timed on the same threads, alone.
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("prt_equal_quality"),
+        embree=1,
+    params:
+        cfg=prt_equal_quality_params,
+    script:
+        "../scripts/prt_equal_quality.py"
 
 
 rule prt_model_summary:
@@ -486,7 +517,9 @@ rule prt_unseen:
         object="|".join(PRT_OBJECTS),
     conda:
         "../envs/neurender.yaml"
-    threads: workflow.cores
+    # One thread: it times nothing, so it runs beside another job instead of alone on
+    # both cores (two threads used about 1.4 of them).
+    threads: 1
     resources:
         **scheduler_resources("prt_unseen"),
         embree=1,

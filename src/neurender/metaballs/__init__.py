@@ -26,6 +26,16 @@ GAN_VARIANTS = ("pix2pix",)
 #: The thesis's network and ours: the demo animates and times both.
 DEMO_VARIANTS = ("pix2pix", "sphere_residual")
 
+
+def trained_variants(chosen) -> tuple[str, ...]:
+    """The networks a run trains, in the order of :data:`VARIANTS`: those ``chosen``
+    (``metaballs_model.variants``) and always :data:`DEMO_VARIANTS`."""
+    unknown = sorted(set(chosen) - set(VARIANTS))
+    if unknown:
+        raise ValueError(f"metaballs_model.variants: {unknown} not among {list(VARIANTS)}")
+    return tuple(v for v in VARIANTS if v in chosen or v in DEMO_VARIANTS)
+
+
 #: The strongest no-learning baseline: inflated impostors refined on the field
 #: (:mod:`neurender.metaballs.refined`); every network is checked against it, and the
 #: equal-quality sweep times it beside the networks.

@@ -18,9 +18,7 @@ from neurender import io, viewer_data
 from neurender.deployment import deployment_table
 from neurender.metaball import kernel_from_config
 from neurender.metaballs import (
-    DEMO_VARIANTS,
     REFINED_BASELINE,
-    VARIANTS,
     ab,
     data,
     demo,
@@ -83,18 +81,17 @@ def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> 
 
 
 def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) and the sphere
-    baselines scored on the held-out scenes: per example, means, by scene complexity,
-    and their figures."""
+    """Every variant trained (``checkpoints``) and the sphere baselines scored on the
+    held-out scenes: per example, means, by scene complexity, and their figures."""
     columns = ["example", "file", "balls", "min_depth_separation"]
     manifest = io.read_csv(inputs["test_manifest"], columns)
     scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
-    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads)
     frame, showcase = evaluate.score_test_set(
         inputs["test_dir"], manifest, scene_of, renderers, params["width"]
     )
     io.write_csv(outputs["examples"], frame)
-    budgets = evaluate.budget_rows(dict(zip(VARIANTS, inputs["checkpoints"], strict=True)))
+    budgets = evaluate.budget_rows(dict(zip(renderers, inputs["checkpoints"], strict=True)))
     io.write_csv(outputs["metrics"], pd.concat([evaluate.mean_metrics(frame), budgets]))
     by_scene = evaluate.accuracy_by_scene(frame)
     io.write_csv(outputs["by_scene"], by_scene)
@@ -103,15 +100,15 @@ def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) 
 
 
 def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant (``checkpoints`` and their shipped graphs ``onnx`` in the order of
-    :data:`VARIANTS`; on the CPU the graphs are timed) against the cheapest ray marcher of
-    its quality (:mod:`neurender.metaballs.equal_quality`) on the first
-    ``equal_quality_examples`` test examples: their quality from the evaluation's
-    per-example rows (``examples``), every marcher of the sweep rendered, scored and timed
-    beside each network's frame time and the refined impostors' (the strongest no-learning
-    renderer, :data:`REFINED_BASELINE`), all with ``threads`` torch threads (the rule asks
-    for one: on a shared 2-core machine two threads of small tensor operations measured up
-    to 20 times slower); the tidy ``table`` and the ``figure``."""
+    """Every variant trained (``checkpoints`` and their shipped graphs ``onnx``, same order;
+    on the CPU the graphs are timed) against the cheapest ray marcher of its quality
+    (:mod:`neurender.metaballs.equal_quality`) on the first ``equal_quality_examples`` test
+    examples: their quality from the evaluation's per-example rows (``examples``), every
+    marcher of the sweep rendered, scored and timed beside each network's frame time and the
+    refined impostors' (the strongest no-learning renderer, :data:`REFINED_BASELINE`), all
+    with ``threads`` torch threads (the rule asks for one: on a shared 2-core machine two
+    threads of small tensor operations measured up to 20 times slower); the tidy ``table``
+    and the ``figure``."""
     manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
     manifest = manifest.head(params["equal_quality_examples"])
     scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
@@ -120,9 +117,7 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
         for ex in manifest.itertuples()
     ]
     # Loading sets the torch threads: the marchers are timed with the networks' threads.
-    renderers = load_renderers(
-        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
-    )
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     scores = equal_quality.score_settings(examples, params["width"], equal_quality.sweep())
     rows = io.read_csv(inputs["examples"], ["example", "model", "metric", "value"])
     targets = equal_quality.network_targets(rows, manifest["example"].tolist())
@@ -140,13 +135,11 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
 
 def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The animated demo by each of :data:`DEMO_VARIANTS` (``checkpoints`` and their shipped
-    graphs ``onnx`` in that order; on the CPU the graphs run) and by ray marching: frames
+    graphs ``onnx``, same order; on the CPU the graphs run) and by ray marching: frames
     as GIF and strip, per-frame times, temporal stability, frame time against the number of
     balls, and the timing table, all timed with ``threads`` threads (the rule asks for one,
     as :func:`metaballs_equal_quality`)."""
-    renderers = load_renderers(
-        DEMO_VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
-    )
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     sequence = demo.render_sequence(
         renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
     )
@@ -163,19 +156,17 @@ def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> N
 
 
 def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant (``checkpoints`` in the order of :data:`VARIANTS`) as the ONNX file a
-    renderer ships (``onnx``, same order), checked against PyTorch on the inputs of the
+    """Every variant trained (``checkpoints``) as the ONNX file a renderer ships (``onnx``,
+    same order), checked against PyTorch on the inputs of the
     first test scenes (``test_balls``) and timed by both engines on the CPU with
     ``threads`` threads (:mod:`neurender.metaballs.deploy`); one row per variant in
     ``table`` (:mod:`neurender.deployment`)."""
     scenes = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
     rows = []
-    for variant, checkpoint, onnx_out in zip(
-        VARIANTS, inputs["checkpoints"], outputs["onnx"], strict=True
-    ):
+    for checkpoint, onnx_out in zip(inputs["checkpoints"], outputs["onnx"], strict=True):
         renderer = MetaballRenderer(checkpoint, "cpu", threads)
         x = deploy.example_inputs(renderer, scenes)
-        rows.append(deploy.deploy_generator(variant, renderer, x, onnx_out, threads))
+        rows.append(deploy.deploy_generator(renderer.variant, renderer, x, onnx_out, threads))
     io.write_csv(outputs["table"], deployment_table(rows))
 
 
@@ -189,15 +180,15 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 
 def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The user's scenes (``scenes``, a CSV of balls) rendered by every variant
-    (``checkpoints`` in the order of :data:`VARIANTS`), the sphere baselines and the ray
-    marcher at width ``width``: the test set's metrics per scene and the figure. A scene
-    whose surface holds the camera is refused as the file is read; an empty frame or one
-    the near plane cuts is warned about (:func:`neurender.metaballs.user_scenes.view_notes`)."""
+    """The user's scenes (``scenes``, a CSV of balls) rendered by every variant trained
+    (``checkpoints``), the sphere baselines and the ray marcher at width ``width``: the test
+    set's metrics per scene and the figure. A scene whose surface holds the camera is
+    refused as the file is read; an empty frame or one the near plane cuts is warned about
+    (:func:`neurender.metaballs.user_scenes.view_notes`)."""
     balls = scene_file.read_user_scenes(inputs["scenes"])
     for note in user_scenes.outside_training(balls):
         log.warning("%s: %s", inputs["scenes"], note)
-    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads)
     frame, shown = user_scenes.score_user_scenes(
         user_scenes.to_scenes(balls, kernel_from_config(params["kernel"])),
         renderers,
@@ -206,14 +197,14 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     for note in user_scenes.view_notes(frame):
         log.warning("%s: %s", inputs["scenes"], note)
     io.write_csv(outputs["table"], frame)
-    figures.user_scenes_figure(shown, list(VARIANTS), outputs["figure"])
+    figures.user_scenes_figure(shown, list(renderers), outputs["figure"])
 
 
 def metaballs_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The report's interactive view (:mod:`neurender.metaballs.viewer`): the demo
-    animation by every network (``checkpoints`` in the order of :data:`VARIANTS`) and by
-    the ray marcher, with each network's silhouette difference as an overlay."""
-    renderers = load_renderers(VARIANTS, inputs["checkpoints"], params["device"], threads)
+    """The report's interactive view (:mod:`neurender.metaballs.viewer`): the demo animation
+    by every network trained (``checkpoints``) and by the ray marcher, with each network's
+    silhouette difference as an overlay."""
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads)
     sequence = demo.render_sequence(
         renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
     )
@@ -221,7 +212,7 @@ def metaballs_viewer(inputs: dict, outputs: dict, params: dict, threads: int) ->
         outputs["viewer"],
         "frames",
         "Metaballs: the demo animation, networks against the ray marcher",
-        demo_view(sequence, list(VARIANTS), params["width"]),
+        demo_view(sequence, list(renderers), params["width"]),
     )
 
 
@@ -233,12 +224,10 @@ def _scale_networks(renderers: dict[str, MetaballRenderer]) -> dict[str, tuple]:
 def metaballs_scale(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every renderer's cost and quality against the number of balls
     (:mod:`neurender.metaballs.scale`): the networks (``checkpoints`` and their shipped
-    graphs ``onnx`` in the order of :data:`VARIANTS`) on the cluster scenes of each count of
+    graphs ``onnx``, same order) on the cluster scenes of each count of
     ``scale.balls`` at each of ``scale.widths``, one thread as the other timings; the tidy
     ``rows``, the ``equal_quality`` table and the ``figure``."""
-    renderers = load_renderers(
-        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
-    )
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     cfg = {
         **params["scale"],
         "seed": params["seed"],
@@ -248,7 +237,7 @@ def metaballs_scale(inputs: dict, outputs: dict, params: dict, threads: int) -> 
     rows = scale.measure(renderers, cfg, params["width"])
     io.write_csv(outputs["rows"], rows)
     mean = scale.means(rows)
-    equal = scale.equal_quality_rows(mean, list(VARIANTS))
+    equal = scale.equal_quality_rows(mean, list(renderers))
     io.write_csv(outputs["equal_quality"], equal)
     scale.scale_figure(mean, equal, SCALE_NETWORK, outputs["figure"])
 
@@ -260,9 +249,7 @@ def metaballs_real_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     by the exact renderer, the networks and each no-learning renderer's most exact setting)
     and the trajectory's animation by the exact renderer beside :data:`SCALE_NETWORK`
     (``trajectory``)."""
-    renderers = load_renderers(
-        VARIANTS, inputs["checkpoints"], params["device"], threads, inputs["onnx"]
-    )
+    renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     cfg, width = params["scale"], params["width"]
     kernel = kernel_from_config(params["kernel"])
     scenes = real_scenes.real_scenes(

@@ -16,16 +16,22 @@ from neurender.metaballs import (
     EQUAL_QUALITY_RESOLUTIONS,
     GAN_VARIANTS,
     MIRRORINGS,
-    VARIANTS,
+    trained_variants,
 )
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.method import Method, ReportInputs, Rule, Study, Units
 from neurender.user_paths import UserPath, made_by_the_workflow
 
 STAGE = "metaballs"
-#: A training step with the discriminator costs this many steps without it (measured
-#: on the 2-core reference CPU; ``benchmarks/gpu_check.py`` counts GPU steps alike).
-GAN_STEP_COST = 3.7
+
+
+def gan_step_cost(ngf: int, ndf: int) -> float:
+    """How many steps without the discriminator a step with it costs: the generator's
+    passes plus the discriminator's three (real, fake, the generator's loss), which grow
+    with ``(ndf / ngf)^2``. Fitted on the 2-core reference CPU (width 128, batch 4,
+    ngf 16, one thread): 2.2 at ndf 16, 3.9 at ndf 32; ``benchmarks/gpu_check.py`` counts
+    GPU steps alike."""
+    return 1.63 + 0.57 * (ndf / ngf) ** 2
 
 
 def problems(config: Mapping[str, Any]) -> Iterator[str]:
@@ -78,7 +84,8 @@ def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Steps x pixels x the generator's width squared (a GAN step costs more)."""
     mb, mm = cfg["metaballs"], cfg["metaballs_model"]
     w = mb["width"]
-    gan = GAN_STEP_COST if wildcards.get("variant", "pix2pix") in GAN_VARIANTS else 1.0
+    gan = wildcards.get("variant", "pix2pix") in GAN_VARIANTS
+    gan = gan_step_cost(mm["ngf"], mm["ndf"]) if gan else 1.0
     flips = MIRRORINGS if mm["flips"] else 1
     steps = mm["epochs"] * flips * mb["examples"]["train"]
     data_mb = min(mb["examples"]["train"] * w * w * 12, io.IN_MEMORY_LIMIT_BYTES) / 1e6
@@ -88,13 +95,14 @@ def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Per network: an export, and 2 x 23 timed frames."""
     w, ngf = cfg["metaballs"]["width"], cfg["metaballs_model"]["ngf"]
-    return len(VARIANTS) * (1 + w * w * ngf**2 / 1e6), w * w / 1e3
+    networks = len(trained_variants(cfg["metaballs_model"]["variants"]))
+    return networks * (1 + w * w * ngf**2 / 1e6), w * w / 1e3
 
 
 def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """The demo rendered by every network and by the ray marcher."""
     w, frames = cfg["metaballs"]["width"], cfg["metaballs_model"]["demo_frames"]
-    renderers = len(VARIANTS) + 1
+    renderers = len(trained_variants(cfg["metaballs_model"]["variants"])) + 1
     return frames * w * w * renderers / 1e6, frames * w * w * renderers / 1e3
 
 
@@ -117,7 +125,8 @@ def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Unit
     w = mb["width"]
     per_resolution = len(EQUAL_QUALITY_MIN_STEPS) * len(EQUAL_QUALITY_BISECTIONS)
     pixels = per_resolution * sum(round(r * w) ** 2 for r in EQUAL_QUALITY_RESOLUTIONS)
-    work = mm["equal_quality_examples"] * (pixels * sum(mb["balls"]) / 2 + len(VARIANTS) * w * w)
+    networks = len(trained_variants(mm["variants"]))
+    work = mm["equal_quality_examples"] * (pixels * sum(mb["balls"]) / 2 + networks * w * w)
     return work / 1e6, w * w / 1e3
 
 

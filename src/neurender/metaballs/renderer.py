@@ -83,16 +83,13 @@ class MetaballRenderer:
 
 
 def load_renderers(
-    names: tuple[str, ...],
-    checkpoints: list[str],
-    device: str,
-    threads: int,
-    onnx: list[str] | None = None,
+    checkpoints: list[str], device: str, threads: int, onnx: list[str] | None = None
 ) -> dict[str, MetaballRenderer]:
-    """Variant name to its renderer, from checkpoints (and, if given, their shipped
-    graphs ``onnx``) in the order of ``names``."""
-    graphs = [None] * len(names) if onnx is None else onnx
-    return {
-        name: MetaballRenderer(path, device, threads, graph)
-        for name, path, graph in zip(names, checkpoints, graphs, strict=True)
-    }
+    """Variant name (the one each checkpoint was trained as) to its renderer, in the order
+    of ``checkpoints`` (and, if given, their shipped graphs ``onnx``, same order)."""
+    graphs = [None] * len(checkpoints) if onnx is None else onnx
+    renderers = [
+        MetaballRenderer(path, device, threads, graph)
+        for path, graph in zip(checkpoints, graphs, strict=True)
+    ]
+    return {r.variant: r for r in renderers}

@@ -167,29 +167,61 @@ def _evaluation_scores(
     return pd.DataFrame(rows), panels, data
 
 
-def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant's networks (``params["variants"]``, named by
-    :data:`neurender.prt.VARIANTS`) and their int8 graphs (:func:`neurender.prt.int8_name`,
-    run by ONNX Runtime on the CPU), MoMoPRT and the noise floor scored on the val and
-    test frames of one object (:mod:`neurender.prt.scores`), each network timed
-    (:mod:`neurender.prt.equal_quality`; each network's times and ONNX file are its
-    ``deployment`` rows) with its training budget (``epochs_<material>``), and Fig. 7."""
-    name, variants = params["object"], params["variants"]
-    seq = io.load_npz(inputs["seq"])
-    light = frames.read_sh_light(inputs["light"], params["n_bands"])
-    checkpoints = _variant_files(variants, inputs["deepprt"])
+def _networks(
+    inputs: dict, params: dict, threads: int
+) -> tuple[dict[tuple[str, str], DeepPRT], dict[tuple[str, str], str], dict]:
+    """Every variant's networks (``params["variants"]``) by ``(model name, material)``:
+    the float32 graph on ``params["device"]`` (PyTorch) and the int8 graph
+    (:func:`neurender.prt.int8_name`, ONNX Runtime on the CPU whatever the device); their
+    ONNX files by the same keys; the checkpoints by ``(variant, material)``."""
+    checkpoints = _variant_files(params["variants"], inputs["deepprt"])
     graphs = {"onnx": VARIANTS, "int8": {v: int8_name(m) for v, m in VARIANTS.items()}}
     nets, files = {}, {}
     for key, names in graphs.items():
-        # The int8 graph runs on the CPU (ONNX Runtime) whatever the device.
         device, pytorch = (params["device"], True) if key == "onnx" else ("cpu", False)
-        for (v, m), onnx_file in _variant_files(variants, inputs[key]).items():
+        for (v, m), onnx_file in _variant_files(params["variants"], inputs[key]).items():
             files[names[v], m] = onnx_file
             nets[names[v], m] = DeepPRT(checkpoints[v, m], onnx_file, device, threads, pytorch)
-    scores, panels, test = _evaluation_scores(inputs, params, seq, light, nets, threads)
+    return nets, files, checkpoints
+
+
+def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every variant's networks (``params["variants"]``, named by
+    :data:`neurender.prt.VARIANTS`) and their int8 graphs, MoMoPRT and the noise floor
+    scored on the val and test frames of one object (:mod:`neurender.prt.scores`): per
+    frame (``frames``), their means with each network's training budget
+    (``epochs_<material>``) (``scores``), and Fig. 7. Times nothing: the rule runs on one
+    thread beside other jobs (:func:`prt_equal_quality` times)."""
+    name, variants = params["object"], params["variants"]
+    seq = io.load_npz(inputs["seq"])
+    light = frames.read_sh_light(inputs["light"], params["n_bands"])
+    nets, _, checkpoints = _networks(inputs, params, threads)
+    scores, panels, _ = _evaluation_scores(inputs, params, seq, light, nets, threads)
     io.write_csv(outputs["frames"], scores)
+    budget = []
+    for v in variants:
+        epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
+        for model in (VARIANTS[v], int8_name(VARIANTS[v])):
+            budget += tidy_rows("prt", name, model, "test", epochs)
+    io.write_csv(outputs["scores"], pd.concat([aggregate(scores), pd.DataFrame(budget)]))
+    int8 = {int8_name(m) for m in VARIANTS.values()}
+    float32 = {k: p for k, p in panels.items() if k[0] not in int8}
+    figures.prediction_figure(name, float32, outputs["figure"])
+
+
+def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every network of :func:`prt_evaluate` timed on the first test frame by each of its
+    engines and against ray-traced ground truth of its quality
+    (:mod:`neurender.prt.equal_quality`), all on this job's ``threads`` (the rule takes
+    every core); the object's ``metrics``: the evaluation's ``scores`` and the timing rows;
+    its ``deployment`` rows (each network's times and ONNX file)."""
+    name, variants = params["object"], params["variants"]
+    seq = io.load_npz(inputs["seq"])
+    light = frames.read_sh_light(inputs["light"], params["n_bands"])
+    test = split_frames(inputs, seq, "test", params["n_bands"])
+    nets, files, _ = _networks(inputs, params, threads)
     engine_s = {key: inference_seconds(net, test) for key, net in nets.items()}
-    models = [names[v] for v in variants for names in graphs.values()]
+    models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
     timing = timing_rows(
         name,
         {model: nets[model, "diffuse"] for model in models},
@@ -198,27 +230,22 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
         light,
         params,
         threads,
-        scores,
+        io.read_csv(inputs["frames"], ["split", "model", "metric", "frame", "value"]),
     )
-    deployment, budget = [], []
-    for v in variants:
-        for model in (names[v] for names in graphs.values()):
-            deployment += deployment_rows(
-                name,
-                {m: nets[model, m] for m in MATERIALS},
-                {m: files[model, m] for m in MATERIALS},
-                {m: engine_s[model, m] for m in MATERIALS},
-                test,
-                threads,
-                model,
-            )
-            epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
-            budget += tidy_rows("prt", name, model, "test", epochs)
+    deployment = []
+    for model in models:
+        deployment += deployment_rows(
+            name,
+            {m: nets[model, m] for m in MATERIALS},
+            {m: files[model, m] for m in MATERIALS},
+            {m: engine_s[model, m] for m in MATERIALS},
+            test,
+            threads,
+            model,
+        )
     io.write_csv(outputs["deployment"], deployment_table(deployment))
-    table = pd.concat([aggregate(scores), timing, pd.DataFrame(budget)], ignore_index=True)
+    table = pd.concat([io.read_csv(inputs["scores"]), timing], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
-    float32 = {k: p for k, p in panels.items() if k[0] not in graphs["int8"].values()}
-    figures.prediction_figure(name, float32, outputs["figure"])
 
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

@@ -124,19 +124,23 @@ def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 
 
 def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
-    """The equal-quality rays and the validation and test renders."""
+    """The noise floor's rays (every test frame at both direction counts) and the
+    validation and test renders."""
     prt, pm = cfg["prt"], cfg["prt_model"]
     n, frames = prt["resolution"], prt["frames"]
-    rays = frames["test"] * n * n * prt["directions"] / 2
-    rays += (
-        prt["noise_floor_frames"]
-        * n
-        * n
-        / 2
-        * (sum(pm["equal_quality_directions"]) + prt["reference_directions"])
-    )
+    rays = frames["test"] * n * n * (prt["directions"] + prt["reference_directions"]) / 2
     renders = (frames["val"] + frames["test"]) * pm["render_resolution"] ** 2 * 8
     return (rays + renders) / 1e6, (frames["val"] + frames["test"]) * n * n * 60 / 1e6
+
+
+def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The ray-traced estimates on the first test frames, at every direction count of the
+    sweep and the reference's."""
+    prt, pm = cfg["prt"], cfg["prt_model"]
+    n, frames = prt["resolution"], prt["frames"]
+    directions = sum(pm["equal_quality_directions"]) + prt["reference_directions"]
+    rays = min(prt["noise_floor_frames"], frames["test"]) * n * n / 2 * directions
+    return rays / 1e6, frames["test"] * n * n * 60 / 1e6
 
 
 def _unseen(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -403,6 +407,7 @@ METHOD = Method(
         "prt_ship": Rule(MODELS),
         "prt_momoprt": Rule(MODELS, _momoprt),
         "prt_evaluate": Rule(MODELS, _evaluate),
+        "prt_equal_quality": Rule(MODELS, _equal_quality),
         "prt_model_summary": Rule(MODELS),
         "prt_experiment": Rule(MODELS),
         "prt_unseen": Rule(MODELS, _unseen),

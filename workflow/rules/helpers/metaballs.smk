@@ -4,11 +4,14 @@ from neurender.metaballs import (
     DEMO_VARIANTS as METABALLS_DEMO_VARIANTS,
     GAN_VARIANTS as METABALLS_GAN_VARIANTS,
     SPLITS as METABALLS_SPLITS,
-    VARIANTS as METABALLS_VARIANTS,
+    trained_variants as metaballs_trained_variants,
 )
 
 from neurender.metaballs.method import kernel_keys as metaballs_kernel_keys
 from neurender.metaballs.method import scene_keys as metaballs_scene_keys
+
+#: The networks this run trains (``metaballs_model.variants`` and always the demo's).
+METABALLS_VARIANTS = metaballs_trained_variants(config["metaballs_model"]["variants"])
 
 #: The keys of ``metaballs_model`` every training job reads; the GAN variants also ``ndf``
 #: and ``gan_weight`` (the others train with ``gan_weight`` 0).

@@ -144,13 +144,17 @@ def prt_momoprt_params(wildcards):
 
 
 def prt_evaluate_params(wildcards):
-    keys = PRT_TRANSFER_KEYS + (
-        "directions",
-        "reference_directions",
-        "noise_floor_frames",
-    )
-    model = ("render_resolution", "glossy_exponent", "equal_quality_directions")
-    model += ("variants",)
+    """The scores' keys: the noise floor's ground truth (traced at both direction counts)
+    and the renders."""
+    keys = PRT_TRANSFER_KEYS + ("directions", "reference_directions")
+    model = ("render_resolution", "glossy_exponent", "variants")
+    return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
+
+
+def prt_equal_quality_params(wildcards):
+    """The ray-traced estimates' keys (on the first noise_floor_frames test frames)."""
+    keys = PRT_TRANSFER_KEYS + ("reference_directions", "noise_floor_frames")
+    model = ("render_resolution", "equal_quality_directions", "variants")
     return prt_params(keys, model, ("seed", "device"), object=wildcards.object)
 
 
