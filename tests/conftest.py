@@ -13,7 +13,7 @@ def mitsuba():
 def tensorboard_steps():
     """``folder -> {tag: [steps]}`` of every scalar and image in a TensorBoard folder, read
     back with TensorBoard's own reader."""
-    reader = pytest.importorskip("tensorboard.backend.event_processing.event_accumulator")
+    from tensorboard.backend.event_processing import event_accumulator as reader
 
     def read(folder) -> dict[str, list[int]]:
         acc = reader.EventAccumulator(str(folder), size_guidance={"scalars": 0, "images": 0})

@@ -141,13 +141,13 @@ def test_averaged_fits_take_the_mean_time_and_the_largest_memory():
     assert out.loc["c"].tolist() == pytest.approx([6.0, 1.0, 200.0, 2.0, 2])
 
 
-def test_an_averaged_fit_is_within_the_check_factor_of_machines_up_to_5x_apart():
+def test_an_averaged_fit_is_within_3x_of_machines_5x_apart():
     # A job of 10 units measured on a machine and on one 5x slower: the average of the two
-    # fits is within CHECK_FACTOR of both, which neither fit alone is.
+    # fits is within 3x of both (the plan check's factor), which neither fit alone is.
     fast, slow = _fit("a", 1.0, 0.5, 400.0, 2), _fit("a", 5.0, 2.5, 400.0, 2)
     measured = {"fast": 1.0 + 0.5 * 10, "slow": 5.0 + 2.5 * 10}
     c = plan.average_fits([fast, slow]).iloc[0]
     estimate = c.fixed_s + c.per_unit_s * 10
     for seconds in measured.values():
-        assert 1 / plan.CHECK_FACTOR <= estimate / seconds <= plan.CHECK_FACTOR
-    assert measured["slow"] / measured["fast"] > plan.CHECK_FACTOR
+        assert 1 / 3 <= estimate / seconds <= 3
+    assert measured["slow"] / measured["fast"] > 3

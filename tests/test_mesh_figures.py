@@ -7,8 +7,6 @@ from PIL import Image
 from neurender import mesh_figures
 from neurender.geometry import grid_faces
 
-pytest.importorskip("pyvista")
-
 
 def test_cells_put_each_group_first_then_the_free_cells_row_by_row():
     cells = mesh_figures._cells((2, 4), [(slice(0, 2), slice(0, 2))])

@@ -59,8 +59,9 @@ def _fit(tmp_path, name, epochs=4, loss=_loss, previews=PREVIEWS):
 
 
 def _events(folder):
-    """TensorBoard's own reader of ``folder`` (the test is skipped without tensorboard)."""
-    reader = pytest.importorskip("tensorboard.backend.event_processing.event_accumulator")
+    """TensorBoard's own reader of ``folder`` (a hard dependency: its absence fails)."""
+    from tensorboard.backend.event_processing import event_accumulator as reader
+
     acc = reader.EventAccumulator(str(folder), size_guidance={"scalars": 0, "images": 0})
     acc.Reload()
     return acc

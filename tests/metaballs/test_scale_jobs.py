@@ -1,5 +1,6 @@
 """The scale and real-scene jobs end to end on tiny networks trained on cluster scenes."""
 
+import pandas as pd
 import pytest
 from PIL import Image
 
@@ -73,16 +74,25 @@ def test_the_real_scenes_job_scores_every_scene_and_animates_the_trajectory(ship
     }
     cfg = {"structures": ["1a28", "adk_dims"], "ball_scale": 1.0, "trajectory_frames": 2}
     params = {"device": "cpu", "width": WIDTH, **KERNEL, "scale": cfg | {"repeats": 1}}
-    jobs.metaballs_real_scenes(shipped, outputs, params, 1)
+    # A user's structure file: the shipped 1a28 under another name.
+    mine = tmp_path / "mine.pdb.gz"
+    mine.write_bytes((molecules.STRUCTURES / "1a28.pdb.gz").read_bytes())
+    jobs.metaballs_real_scenes(shipped | {"user_structures": [str(mine)]}, outputs, params, 1)
 
     table = io.read_csv(outputs["table"])
-    assert set(table.scene) == {"1a28", "adk_dims frame 0", "adk_dims frame 11"}
+    assert set(table.scene) == {"1a28", "adk_dims frame 0", "adk_dims frame 11", "mine.pdb.gz"}
     atoms = table.groupby("scene").balls.first()
     assert atoms["1a28"] == len(molecules.read_structure(molecules.STRUCTURES / "1a28.pdb.gz"))
+    assert atoms["mine.pdb.gz"] == atoms["1a28"]
     exact = table[table.renderer == scale.EXACT].pivot(index="scene", columns="metric")["value"]
     assert (exact.near_plane == 0).all() and (exact.covered > 0.05).all()
+    # Your file is the same scene as the shipped entry: every score equal.
+    by_scene = table.set_index(["renderer", "setting", "metric", "scene"])["value"].unstack()
+    timings = [m for m in by_scene.index if m[2].startswith("ms_") or m[2] == "peak_mb"]
+    scores = by_scene.drop(index=timings)
+    pd.testing.assert_series_equal(scores["mine.pdb.gz"], scores["1a28"], check_names=False)
     nets = table[table.renderer.isin(VARIANTS) & (table.metric == "iou_depth")]
-    assert len(nets) == 3 * len(VARIANTS)
+    assert len(nets) == 4 * len(VARIANTS)
     gif = Image.open(outputs["trajectory"])
     assert gif.n_frames == molecules.model_count(molecules.STRUCTURES / molecules.TRAJECTORY)
     assert gif.size == (2 * WIDTH, WIDTH)

@@ -45,6 +45,9 @@ BALLS = pd.DataFrame(
     }
 )
 
+#: The rest of the config the check reads: no structure files of yours.
+NO_STRUCTURES = {"metaballs_scale": {"user_structures": []}}
+
 
 def _csv(tmp_path, frame, name="scenes.csv"):
     path = tmp_path / name
@@ -97,15 +100,16 @@ def test_bad_scenes_are_refused_naming_the_file_and_lines(tmp_path, change, mess
 def test_the_config_check_refuses_a_bad_scenes_file_before_any_job(tmp_path):
     path = _csv(tmp_path, BALLS.assign(radius=[1.0, 0.0, 1.0, 1.0]), "bad.csv")
     cfg = {
-        "metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32, "user_scenes": str(path)}
+        **NO_STRUCTURES,
+        "metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32, "user_scenes": str(path)},
     }
     (problem,) = list(method.problems(cfg))
     assert (
         problem.startswith(f"metaballs.user_scenes = '{path}'") and "radius must be > 0" in problem
     )
-    missing = {"metaballs": {**cfg["metaballs"], "user_scenes": str(tmp_path / "none.csv")}}
+    missing = {**cfg, "metaballs": {**cfg["metaballs"], "user_scenes": str(tmp_path / "none.csv")}}
     assert "none.csv" in next(iter(method.problems(missing)))
-    made = {"metaballs": {**cfg["metaballs"], "user_scenes": "results/examples/balls.csv"}}
+    made = {**cfg, "metaballs": {**cfg["metaballs"], "user_scenes": "results/examples/balls.csv"}}
     assert list(method.problems(made)) == []  # the workflow makes it; checked then
 
 
@@ -218,7 +222,8 @@ def test_a_folder_or_fifo_given_as_the_scenes_file_is_named_as_such(tmp_path):
     with pytest.raises(FileNotFoundError, match=rf"CSV file {fifo} is a named pipe \(FIFO\)"):
         read_user_scenes(fifo)
     cfg = {"metaballs": {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32}}
-    (problem,) = method.problems({"metaballs": {**cfg["metaballs"], "user_scenes": str(fifo)}})
+    scenes = {**cfg["metaballs"], "user_scenes": str(fifo)}
+    (problem,) = method.problems({**NO_STRUCTURES, "metaballs": scenes})
     assert problem == (
         f"metaballs.user_scenes = '{fifo}': CSV file {fifo} is a named pipe (FIFO), not a file"
     )
@@ -300,7 +305,7 @@ def test_a_ball_holding_the_camera_is_refused_naming_the_file_scene_and_line(tmp
     assert "radius 1000 at distance 15" in message and "Expected a field below 1" in message
     assert scene_file.SURFACE_FIELD == THRESHOLD  # the torch-free copy of the surface level
     cfg = {"balls": [2, 6], "radius": [0.6, 1.6], "width": 32, "user_scenes": str(path)}
-    (problem,) = method.problems({"metaballs": cfg})  # refused before any job
+    (problem,) = method.problems({**NO_STRUCTURES, "metaballs": cfg})  # refused before any job
     assert problem.startswith(f"metaballs.user_scenes = '{path}'") and "scene 'wall'" in problem
 
 

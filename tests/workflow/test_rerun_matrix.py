@@ -25,9 +25,9 @@ ROOT = Path(__file__).resolve().parents[2]
 #: key no job's computation reads (``gpus`` and the ``threads`` keys are resources, except
 #: where a stage's timing divides by them), and for keys that only pick inputs or shape the
 #: DAG (``prt.light``, ``prt.probes``, ``prt.experiments``, ``metaballs.user_scenes``,
-#: ``metaballs_model.variants``: their jobs appear, disappear or get other input files, which
-#: other triggers rerun). Reviewed by hand when drafted from a run: each set is what the
-#: rule's job reads.
+#: ``metaballs_model.variants``, ``metaballs_scale.user_structures``: their jobs appear,
+#: disappear or get other input files, which other triggers rerun). Reviewed by hand when
+#: drafted from a run: each set is what the rule's job reads.
 READERS: dict[str, set[str]] = {
     "seed": {
         "example_assets",
@@ -338,6 +338,7 @@ READERS: dict[str, set[str]] = {
     "metaballs_scale.scenes": set(),
     "metaballs_scale.repeats": set(),
     "metaballs_scale.structures": set(),
+    "metaballs_scale.user_structures": set(),
     "metaballs_scale.ball_scale": set(),
     "metaballs_scale.trajectory_frames": set(),
     "metaballs_model.variants": set(),
@@ -466,6 +467,7 @@ NEW_VALUES = {
     "metaballs.family": "cluster",
     "metaballs_scale.widths": [64],
     "metaballs_scale.structures": ["1a28"],
+    "metaballs_scale.user_structures": ["src/neurender/metaballs/structures/1a28.pdb.gz"],
     "metaballs_scale.balls": [10],
     "simplification.cases": ["head"],
     "simplification.user_assets": {

@@ -357,6 +357,7 @@ rule metaballs_real_scenes:
     input:
         checkpoints=expand("results/metaballs/{variant}.pt", variant=METABALLS_VARIANTS),
         onnx=expand("results/metaballs/onnx/{variant}.onnx", variant=METABALLS_VARIANTS),
+        user_structures=metaballs_user_structure_files(),
     output:
         table=report(
             "results/metaballs/real_scenes.csv",

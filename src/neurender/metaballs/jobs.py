@@ -243,17 +243,20 @@ def metaballs_scale(inputs: dict, outputs: dict, params: dict, threads: int) -> 
 
 
 def metaballs_real_scenes(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The shipped real scenes of ``scale.structures`` (:mod:`neurender.metaballs.real_scenes`)
-    drawn by every renderer at ``width`` and scored against the exact one: the tidy
-    ``table`` (a row per scene, renderer, setting and metric), the ``figure`` (each scene
-    by the exact renderer, the networks and each no-learning renderer's most exact setting)
-    and the trajectory's animation by the exact renderer beside :data:`SCALE_NETWORK`
-    (``trajectory``)."""
+    """The shipped real scenes of ``scale.structures`` and your structure files
+    (``user_structures``; :mod:`neurender.metaballs.real_scenes`) drawn by every renderer at
+    ``width`` and scored against the exact one: the tidy ``table`` (a row per scene,
+    renderer, setting and metric), the ``figure`` (each scene by the exact renderer, the
+    networks and each no-learning renderer's most exact setting) and the trajectory's
+    animation by the exact renderer beside :data:`SCALE_NETWORK` (``trajectory``)."""
     renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     cfg, width = params["scale"], params["width"]
     kernel = kernel_from_config(params["kernel"])
     scenes = real_scenes.real_scenes(
         tuple(cfg["structures"]), kernel, cfg["ball_scale"], cfg["trajectory_frames"]
+    )
+    scenes |= real_scenes.user_structure_scenes(
+        tuple(inputs["user_structures"]), kernel, cfg["ball_scale"], cfg["trajectory_frames"]
     )
     networks = _scale_networks(renderers)
     rows, shown = [], {}

@@ -47,6 +47,22 @@ def problems(config: Mapping[str, Any]) -> Iterator[str]:
             read_user_scenes(scenes)
         except (OSError, ValueError) as err:
             yield f"metaballs.user_scenes = {scenes!r}: {err}"
+    yield from _structure_problems(config["metaballs_scale"]["user_structures"])
+
+
+def _structure_problems(paths: list[str]) -> Iterator[str]:
+    """Each of your structure files that gemmi cannot read as the job would, named."""
+    if not paths:
+        return
+    from neurender.metaballs import molecules  # gemmi: only when there are files to read
+
+    for index, path in enumerate(paths):
+        if made_by_the_workflow(path):
+            continue
+        try:
+            molecules.read_frames(path)
+        except (OSError, ValueError) as err:
+            yield f"metaballs_scale.user_structures[{index}] = {path!r}: {err}"
 
 
 def kernel_keys(metaballs: Mapping[str, Any]) -> dict[str, Any]:
@@ -114,8 +130,10 @@ def _test(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 
 
 def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
-    """The metaballs' user file: the scenes CSV."""
+    """The metaballs' user files: the scenes CSV and the structure files."""
     yield UserPath("metaballs.user_scenes", config["metaballs"]["user_scenes"])
+    for index, path in enumerate(config["metaballs_scale"]["user_structures"]):
+        yield UserPath(f"metaballs_scale.user_structures[{index}]", path)
 
 
 def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -140,7 +158,8 @@ def _scale(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 def _real_scenes(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """The real scenes' count at the trained width (each some 10^4 balls)."""
     sc, w = cfg["metaballs_scale"], cfg["metaballs"]["width"]
-    return len(sc["structures"]) * sc["trajectory_frames"] * w * w / 1e5, w * w / 1e3
+    scenes = len(sc["structures"]) + len(sc["user_structures"])
+    return scenes * sc["trajectory_frames"] * w * w / 1e5, w * w / 1e3
 
 
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
@@ -163,9 +182,11 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     if config["metaballs_scale"]["balls"]:
         tables += ("scale_equal_quality",)
         figures += ("scale",)
-    if config["metaballs_scale"]["structures"]:
+    scale = config["metaballs_scale"]
+    if scale["structures"] or scale["user_structures"]:
         tables += ("real_scenes",)
         figures += ("real_scenes",)
+    if "adk_dims" in scale["structures"]:
         animations.append("trajectory")
     return ReportInputs(
         tables=[f"results/metaballs/{t}.csv" for t in tables],

@@ -1,7 +1,7 @@
 """Real scenes as metaballs: the shipped molecular structures, a molecular-dynamics
 trajectory and a particle-fluid frame (:mod:`neurender.metaballs.molecules`, data and
-licences in ``structures/README.md``), framed into the view volume
-(:mod:`neurender.metaballs.framing`) and drawn by every renderer of
+licences in ``structures/README.md``) and your own structure files, framed into the view
+volume (:mod:`neurender.metaballs.framing`) and drawn by every renderer of
 :mod:`neurender.metaballs.scale` against the exact one.
 
 Atoms are balls of their van-der-Waals radius times ``ball_scale`` in element colours;
@@ -13,6 +13,7 @@ stays still while the protein moves.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -31,6 +32,18 @@ def _scene(atoms: molecules.Atoms, fit: framing.Framing, kernel: Kernel) -> Scen
     return dataclasses.replace(scene, kernel=kernel)
 
 
+def _framed(atoms: molecules.Atoms, kernel: Kernel, ball_scale: float) -> Scene:
+    """One structure or fluid frame, framed on its own balls."""
+    return _scene(atoms, framing.fit_framing(atoms.positions, atoms.radii, ball_scale), kernel)
+
+
+def _picked(label: str, every: list[Scene], frames: int) -> dict[str, Scene]:
+    """``frames`` of a trajectory's scenes ``every``, evenly spaced from the first
+    (labels ``<label> frame k``)."""
+    picks = np.linspace(0, len(every) - 1, min(frames, len(every))).round().astype(int)
+    return {f"{label} frame {k}": every[k] for k in picks}
+
+
 def real_scenes(
     names: tuple[str, ...], kernel: Kernel, ball_scale: float = 1.0, frames: int = 1
 ) -> dict[str, Scene]:
@@ -41,27 +54,45 @@ def real_scenes(
     for name in names:
         if name in molecules.PDB_ENTRIES:
             atoms = molecules.read_structure(molecules.STRUCTURES / molecules.PDB_ENTRIES[name])
-            fit = framing.fit_framing(atoms.positions, atoms.radii, ball_scale)
-            out[name] = _scene(atoms, fit, kernel)
+            out[name] = _framed(atoms, kernel, ball_scale)
         elif name == "adk_dims":
-            every = trajectory(kernel, ball_scale)
-            picks = np.linspace(0, len(every) - 1, min(frames, len(every))).round().astype(int)
-            for k in picks:
-                out[f"adk_dims frame {k}"] = every[k]
+            out |= _picked(name, trajectory(kernel, ball_scale), frames)
         elif name == "dam_break":
             atoms = molecules.read_particles(
                 molecules.STRUCTURES / molecules.FLUID, molecules.FLUID_RADIUS, True
             )
-            fit = framing.fit_framing(atoms.positions, atoms.radii, ball_scale)
-            out[name] = _scene(atoms, fit, kernel)
+            out[name] = _framed(atoms, kernel, ball_scale)
         else:
             raise ValueError(f"real scene {name!r}: expected one of {NAMES}")
+    return out
+
+
+def user_structure_scenes(
+    paths: tuple[str, ...], kernel: Kernel, ball_scale: float = 1.0, frames: int = 1
+) -> dict[str, Scene]:
+    """Label (the file's name) to framed float32 scene of each of your structure files
+    (:func:`neurender.metaballs.molecules.read_frames`); a file of several models is a
+    trajectory that gives ``frames`` of them, evenly spaced from the first and framed alike
+    (labels ``<name> frame k``)."""
+    out = {}
+    for path in paths:
+        every, name = molecules.read_frames(path), Path(path).name
+        if len(every) == 1:
+            out[name] = _framed(every[0], kernel, ball_scale)
+        else:
+            out |= _picked(name, _framed_alike(every, kernel, ball_scale), frames)
     return out
 
 
 def trajectory(kernel: Kernel, ball_scale: float = 1.0) -> list[Scene]:
     """Every frame of the shipped trajectory, framed alike (float32)."""
     every = molecules.read_frames(molecules.STRUCTURES / molecules.TRAJECTORY)
+    return _framed_alike(every, kernel, ball_scale)
+
+
+def _framed_alike(every: list[molecules.Atoms], kernel: Kernel, ball_scale: float) -> list[Scene]:
+    """A trajectory's frames under one framing fitted on all of them (the camera stays
+    still while the molecule moves)."""
     fit = framing.fit_framing(
         np.concatenate([a.positions for a in every]),
         np.concatenate([a.radii for a in every]),

@@ -170,16 +170,37 @@ def coarse_shading(
     env = environment.double()
     bright = bright_texels(env, limit=max_bright)
     light_pdf = bright.pdf if bright is not None else None
-    t, s = _frame(n)
+    frame = (*_frame(n), n)
+    # The order of the draws from ``generator`` is the sample pattern: diffuse, specular,
+    # then the bright texels' diffuse and specular.
+    s_d = _brdf_sampled_diffuse(frame, env, light_pdf, samples, generator)
+    a = alpha.double()[:, None]
+    s_s = _brdf_sampled_specular(frame, v, a, env, light_pdf, samples, generator)
+    if bright is not None:
+        s_d = s_d + _bright_diffuse(n, env, bright, samples, generator)
+        s_s = s_s + _bright_specular(n, v, a, env, bright, samples, generator)
+    return s_d.to(normals.dtype), s_s.to(normals.dtype)
+
+
+def _mis(p_brdf: torch.Tensor, p_light: torch.Tensor) -> torch.Tensor:
+    """Balance-heuristic weight of a strategy with density ``p_brdf`` against the other
+    (equal sample counts); 1 where the other cannot make the direction."""
+    total = p_brdf + p_light
+    return torch.where(p_light > 0, p_brdf / total.clamp(min=1e-300), 1.0)
+
+
+def _brdf_sampled_diffuse(
+    frame: tuple[torch.Tensor, ...],
+    env: torch.Tensor,
+    light_pdf: torch.Tensor | None,
+    samples: int,
+    generator: torch.Generator,
+) -> torch.Tensor:
+    """Lambert's ``S_D`` ``(P, 3)`` from cosine-weighted directions (the estimator is the
+    mean radiance) about the ``(t, s, n)`` frame ``(P, 3)`` each, MIS-weighted against the
+    bright texels' light sampling where ``light_pdf`` (their density map) is given."""
+    t, s, n = frame
     u = _unit_square(len(n), samples, generator)
-
-    def mis(p_brdf: torch.Tensor, p_light: torch.Tensor) -> torch.Tensor:
-        """Balance-heuristic weight of a strategy with density ``p_brdf`` against the other
-        (equal sample counts); 1 where the other cannot make the direction."""
-        total = p_brdf + p_light
-        return torch.where(p_light > 0, p_brdf / total.clamp(min=1e-300), 1.0)
-
-    # Lambert: cosine-weighted directions; the estimator is the mean radiance.
     r = torch.sqrt(u[..., 0:1])
     phi = 2 * math.pi * u[..., 1:2]
     z = torch.sqrt((1 - u[..., 0:1]).clamp(min=0))
@@ -191,12 +212,24 @@ def coarse_shading(
     if light_pdf is not None:
         radiance = (
             radiance
-            * mis(z[..., 0] / math.pi, lookup(light_pdf[..., None], world)[..., 0])[..., None]
+            * _mis(z[..., 0] / math.pi, lookup(light_pdf[..., None], world)[..., 0])[..., None]
         )
-    s_d = radiance.mean(1)
+    return radiance.mean(1)
 
-    # GGX: half vectors from D(h) (n.h), reflected about h.
-    a = alpha.double()[:, None]
+
+def _brdf_sampled_specular(
+    frame: tuple[torch.Tensor, ...],
+    v: torch.Tensor,
+    a: torch.Tensor,
+    env: torch.Tensor,
+    light_pdf: torch.Tensor | None,
+    samples: int,
+    generator: torch.Generator,
+) -> torch.Tensor:
+    """GGX's ``S_S`` ``(P, 3)`` for view directions ``v`` ``(P, 3)`` and widths ``a``
+    ``(P, 1)``: half vectors drawn from ``D(h) (n.h)`` about the ``(t, s, n)`` frame,
+    reflected about ``h``; MIS-weighted as :func:`_brdf_sampled_diffuse`."""
+    t, s, n = frame
     u = _unit_square(len(n), samples, generator)
     tan2 = a**2 * u[..., 0] / (1 - u[..., 0]).clamp(min=1e-12)
     cos_h = 1 / torch.sqrt(1 + tan2)
@@ -216,13 +249,8 @@ def coarse_shading(
     weight = torch.where(valid, g * v_dot_h / (cos_h * n_dot_v.clamp(min=1e-7)), 0.0)
     if light_pdf is not None:
         p_brdf = ggx_d(cos_h, a) * cos_h / (4 * v_dot_h.clamp(min=1e-12))
-        weight = weight * mis(p_brdf, lookup(light_pdf[..., None], light)[..., 0])
-    s_s = (lookup(env, light) * weight[..., None]).mean(1)
-
-    if bright is not None:
-        s_d = s_d + _bright_diffuse(n, env, bright, samples, generator)
-        s_s = s_s + _bright_specular(n, v, a, env, bright, samples, generator)
-    return s_d.to(normals.dtype), s_s.to(normals.dtype)
+        weight = weight * _mis(p_brdf, lookup(light_pdf[..., None], light)[..., 0])
+    return (lookup(env, light) * weight[..., None]).mean(1)
 
 
 def _light_samples(

@@ -88,6 +88,11 @@ def metaballs_user_scenes_file():
     )
 
 
+def metaballs_user_structure_files():
+    """Your structure files (``metaballs_scale.user_structures``), as inputs."""
+    return [as_input(path) for path in config["metaballs_scale"]["user_structures"]]
+
+
 def metaballs_scale_params():
     """The measurement's keys, the cluster family's and the kernel's, and the trained width."""
     keys = ("balls", "widths", "scenes", "repeats")
