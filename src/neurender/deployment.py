@@ -20,15 +20,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
-import torch
-from torch import nn
 
 from neurender import io
-from neurender.nn.inference import engine_milliseconds, export_onnx, onnx_metadata
-from neurender.nn.unet import count_parameters
-from neurender.timing import hardware
+
+if TYPE_CHECKING:
+    import torch
+    from torch import nn
 
 #: The engines timed, by the column of their milliseconds per frame.
 ENGINE_COLUMNS = {
@@ -54,6 +54,8 @@ COLUMNS = (
 def onnx_check_error(path: str | Path) -> float:
     """The largest |ONNX Runtime - PyTorch| of the export's check, stored in the metadata
     of an ONNX file written by :func:`neurender.nn.inference.export_onnx`."""
+    from neurender.nn.inference import onnx_metadata
+
     key = "neurender.max_abs_diff_vs_pytorch"
     metadata = onnx_metadata(path)
     if key not in metadata:
@@ -119,6 +121,11 @@ def measure(
     ``(B >= 2, C, H, W)``, named ``input_names``; allowed difference ``atol + rtol *
     max|y|``, :func:`neurender.nn.inference.export_onnx`), then both engines timed on the
     first example on the CPU with ``threads`` threads."""
+    # torch here, so that the jobs that only read or write the table never load it
+    from neurender.nn.inference import engine_milliseconds, export_onnx
+    from neurender.nn.unet import count_parameters
+    from neurender.timing import hardware
+
     error = export_onnx(graph, examples, onnx_out, atol=atol, input_names=input_names, rtol=rtol)
     ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in examples), threads)
     size = tuple(examples[0].shape[-2:])

@@ -16,6 +16,7 @@ from neurender.metaballs import (
     jobs,
     method,
     raymarch,
+    renderer,
     scene_file,
 )
 from neurender.metaballs.model import network_inputs
@@ -276,7 +277,7 @@ def test_a_scene_with_nothing_in_view_is_warned_marked_empty_and_not_scored_as_p
     tmp_path, monkeypatch, caplog
 ):
     path = _one_ball(tmp_path, "tiny.csv", 15.0, 1e-9)
-    monkeypatch.setattr(jobs, "load_renderers", lambda *a: {v: Blank(32) for v in VARIANTS})
+    monkeypatch.setattr(renderer, "load_renderers", lambda *a: {v: Blank(32) for v in VARIANTS})
     outputs = {"table": str(tmp_path / "user_scenes.csv"), "figure": str(tmp_path / "f.png")}
     params = {"device": "cpu", "width": 32, **KERNEL}
     with caplog.at_level("WARNING"):

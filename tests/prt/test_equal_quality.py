@@ -134,3 +134,30 @@ def test_the_sweep_may_hold_the_references_own_count(sweep, bowl_positions):
     assert reference_s > 0
     if 64 in sweep:
         assert reference_s == estimates[64][0]  # the same work, not traced twice
+
+
+def test_a_ray_traced_time_is_the_median_frame_after_an_uncounted_warm_up(
+    monkeypatch, bowl_positions
+):
+    from neurender.prt import equal_quality
+
+    # Each trace takes the next of these seconds: the warm-up's 9 s, then three frames
+    # of which one is slow; the median frame is 2 s (the mean 4 s, with the warm-up 5.25).
+    durations = iter([9.0, 1.0, 9.0, 2.0])
+    clock = {"now": 0.0}
+    monkeypatch.setattr(equal_quality.time, "perf_counter", lambda: clock["now"])
+
+    def traced(positions, *args):
+        clock["now"] += next(durations)
+        return None, np.zeros(positions.shape[:2] + (4,), np.float32), None, None
+
+    monkeypatch.setattr(equal_quality.transfer, "sample_frame", traced)
+    monkeypatch.setattr(equal_quality, "diffuse_ssim", lambda *args: 0.5)
+    cfg = {"ray_offset": 1e-3, "render_resolution": 16}
+    cfg |= {"equal_quality_directions": [16], "reference_directions": 16}
+    light = np.full((4, 3), 0.5, np.float32)
+    estimates, reference_s = equal_quality.ray_traced_estimates(
+        "bowl", _bowl_split(bowl_positions(frames=3)), 3, light, cfg, 1
+    )
+    assert estimates == {16: (2.0, 0.5)}
+    assert reference_s == 2.0

@@ -1,42 +1,25 @@
 """The image-space metaballs stage's jobs, one per rule of ``workflow/rules/metaballs.smk``.
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
-``(inputs, outputs, params, threads)``; ``params`` holds exactly the config keys the job
-reads (keys of ``metaballs`` and ``metaballs_model``, ``seed``, ``device``) and the
-wildcard values.
+``(inputs, outputs, params, threads)``; each imports the modules it drives when it runs,
+so a job loads only the libraries it uses (torch, matplotlib). ``params`` holds exactly
+the config keys the job reads (keys of ``metaballs`` and ``metaballs_model``, ``seed``,
+``device``) and the wildcard values.
 """
 
 from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
-import torch
 
-from neurender import io, viewer_data
-from neurender.deployment import deployment_table
-from neurender.metaball import kernel_from_config
-from neurender.metaballs import (
-    REFINED_BASELINE,
-    ab,
-    data,
-    demo,
-    deploy,
-    equal_quality,
-    evaluate,
-    figures,
-    real_scenes,
-    scale,
-    scene_file,
-    speed,
-    summary,
-    training,
-    user_scenes,
-)
-from neurender.metaballs.refined import refined_spheres
-from neurender.metaballs.renderer import MetaballRenderer, load_renderers
-from neurender.metaballs.viewer import demo_view
+from neurender import io
+from neurender.metaballs import REFINED_BASELINE
+
+if TYPE_CHECKING:
+    from neurender.metaballs.renderer import MetaballRenderer
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +31,8 @@ SCALE_NETWORK = "sphere_residual"
 
 def metaballs_examples(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One split's AB examples (``examples`` of them, ``split``), its manifest and balls."""
+    from neurender.metaballs import data
+
     manifest, balls = data.generate_split(
         params, params["split"], params["examples"], threads, outputs["examples"]
     )
@@ -57,6 +42,8 @@ def metaballs_examples(inputs: dict, outputs: dict, params: dict, threads: int) 
 
 def metaballs_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Tidy statistics of every split's examples and a figure of the first few."""
+    from neurender.metaballs import figures, summary
+
     rows = []
     for path in inputs["manifests"]:
         manifest = io.read_csv(path, ["split", "balls", "coverage", "seconds"])
@@ -68,6 +55,8 @@ def metaballs_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One variant's generator, trained on the train split and validated on val."""
+    from neurender.metaballs import training
+
     data_key = io.checksum(list(inputs.values()))
     training.train_generator(
         inputs,
@@ -83,6 +72,10 @@ def metaballs_train(inputs: dict, outputs: dict, params: dict, threads: int) -> 
 def metaballs_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every variant trained (``checkpoints``) and the sphere baselines scored on the
     held-out scenes: per example, means, by scene complexity, and their figures."""
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import data, evaluate, figures
+    from neurender.metaballs.renderer import load_renderers
+
     columns = ["example", "file", "balls", "min_depth_separation"]
     manifest = io.read_csv(inputs["test_manifest"], columns)
     scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
@@ -109,6 +102,11 @@ def metaballs_equal_quality(inputs: dict, outputs: dict, params: dict, threads: 
     with ``threads`` torch threads (the rule asks for one: on a shared 2-core machine two
     threads of small tensor operations measured up to 20 times slower); the tidy ``table``
     and the ``figure``."""
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import ab, data, equal_quality
+    from neurender.metaballs.refined import refined_spheres
+    from neurender.metaballs.renderer import load_renderers
+
     manifest = io.read_csv(inputs["test_manifest"], ["example", "file"]).sort_values("example")
     manifest = manifest.head(params["equal_quality_examples"])
     scene_of = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
@@ -139,6 +137,9 @@ def metaballs_demo(inputs: dict, outputs: dict, params: dict, threads: int) -> N
     as GIF and strip, per-frame times, temporal stability, frame time against the number of
     balls, and the timing table, all timed with ``threads`` threads (the rule asks for one,
     as :func:`metaballs_equal_quality`)."""
+    from neurender.metaballs import demo, figures, speed
+    from neurender.metaballs.renderer import load_renderers
+
     renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     sequence = demo.render_sequence(
         renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
@@ -161,6 +162,11 @@ def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) ->
     first test scenes (``test_balls``) and timed by both engines on the CPU with
     ``threads`` threads (:mod:`neurender.metaballs.deploy`); one row per variant in
     ``table`` (:mod:`neurender.deployment`)."""
+    from neurender.deployment import deployment_table
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import data, deploy
+    from neurender.metaballs.renderer import MetaballRenderer
+
     scenes = data.read_scenes(inputs["test_balls"], kernel_from_config(params["kernel"]))
     rows = []
     for checkpoint, onnx_out in zip(inputs["checkpoints"], outputs["onnx"], strict=True):
@@ -172,6 +178,8 @@ def metaballs_deploy(inputs: dict, outputs: dict, params: dict, threads: int) ->
 
 def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The stage's targets, each stated as met or missed, at image width ``width``."""
+    from neurender.metaballs import summary
+
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
     timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
     equal = io.read_csv(inputs["equal_quality"], ["model", "setting", "metric", "value"])
@@ -185,6 +193,10 @@ def metaballs_user_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     set's metrics per scene and the figure. A scene whose surface holds the camera is
     refused as the file is read; an empty frame or one the near plane cuts is warned about
     (:func:`neurender.metaballs.user_scenes.view_notes`)."""
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import figures, scene_file, user_scenes
+    from neurender.metaballs.renderer import load_renderers
+
     balls = scene_file.read_user_scenes(inputs["scenes"])
     for note in user_scenes.outside_training(balls):
         log.warning("%s: %s", inputs["scenes"], note)
@@ -204,6 +216,11 @@ def metaballs_viewer(inputs: dict, outputs: dict, params: dict, threads: int) ->
     """The report's interactive view (:mod:`neurender.metaballs.viewer`): the demo animation
     by every network trained (``checkpoints``) and by the ray marcher, with each network's
     silhouette difference as an overlay."""
+    from neurender import viewer_data
+    from neurender.metaballs import demo
+    from neurender.metaballs.renderer import load_renderers
+    from neurender.metaballs.viewer import demo_view
+
     renderers = load_renderers(inputs["checkpoints"], params["device"], threads)
     sequence = demo.render_sequence(
         renderers, demo.demo_scene(params), params["demo_frames"], params["width"]
@@ -227,6 +244,10 @@ def metaballs_scale(inputs: dict, outputs: dict, params: dict, threads: int) -> 
     graphs ``onnx``, same order) on the cluster scenes of each count of
     ``scale.balls`` at each of ``scale.widths``, one thread as the other timings; the tidy
     ``rows``, the ``equal_quality`` table and the ``figure``."""
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import scale
+    from neurender.metaballs.renderer import load_renderers
+
     renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     cfg = {
         **params["scale"],
@@ -249,6 +270,12 @@ def metaballs_real_scenes(inputs: dict, outputs: dict, params: dict, threads: in
     renderer, setting and metric), the ``figure`` (each scene by the exact renderer, the
     networks and each no-learning renderer's most exact setting) and the trajectory's
     animation by the exact renderer beside :data:`SCALE_NETWORK` (``trajectory``)."""
+    import torch
+
+    from neurender.metaball import kernel_from_config
+    from neurender.metaballs import figures, real_scenes, scale
+    from neurender.metaballs.renderer import load_renderers
+
     renderers = load_renderers(inputs["checkpoints"], params["device"], threads, inputs["onnx"])
     cfg, width = params["scale"], params["width"]
     kernel = kernel_from_config(params["kernel"])

@@ -1,9 +1,10 @@
 """The NDR stage's jobs, one per rule of ``workflow/rules/ndr.smk``.
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
-``(inputs, outputs, params, threads)``. A split's files are ``<split>_dir``,
-``<split>_manifest`` and ``<split>_lighting`` (see :mod:`neurender.ndr.buffers`); the
-variants are those of :mod:`neurender.ndr.variants`.
+``(inputs, outputs, params, threads)``; each imports the modules it drives when it runs,
+so a job loads only the libraries it uses (torch, Mitsuba, matplotlib). A split's files
+are ``<split>_dir``, ``<split>_manifest`` and ``<split>_lighting`` (see
+:mod:`neurender.ndr.buffers`); the variants are those of :mod:`neurender.ndr.variants`.
 """
 
 from __future__ import annotations
@@ -12,36 +13,9 @@ import logging
 import sys
 
 import pandas as pd
-import torch
 
-from neurender import io, viewer_data
-from neurender.deployment import deployment_table
-from neurender.devices import resolve_device
-from neurender.mitsuba_setup import require_mitsuba
-from neurender.ndr import (
-    CALIBRATION_SAMPLES,
-    DATASETS,
-    KINDS,
-    VARIANTS,
-    data,
-    deploy,
-    equal_quality,
-    figures,
-    furnace,
-    graph_scores,
-    pool,
-    relight,
-    split_name,
-    summary,
-    user_objects,
-)
-from neurender.ndr.buffers import NDRDataset
-from neurender.ndr.evaluate import score_split
-from neurender.ndr.model import SHADING_INPUT, load_model
-from neurender.ndr.training import train_variant
-from neurender.ndr.viewer import relight_view
-from neurender.nn.inference import OnnxNetwork
-from neurender.tables import target_table
+from neurender import io
+from neurender.ndr import CALIBRATION_SAMPLES, DATASETS, KINDS, VARIANTS, split_name
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +28,8 @@ def _split_files(inputs: dict, split: str) -> dict[str, str]:
 
 def ndr_data(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Render split ``params["split"]`` (``count`` samples) with ``threads`` processes."""
+    from neurender.ndr import data
+
     data.generate_split(
         params,
         params["split"],
@@ -68,6 +44,10 @@ def ndr_data(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 def ndr_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Per-split statistics (the ``manifests`` of ``params["splits"]``), the white-furnace
     and sun checks and the buffers figure of the ``example`` split."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.ndr import figures, furnace, summary
+    from neurender.tables import target_table
+
     manifests = dict(zip(params["splits"], inputs["manifests"], strict=True))
     io.write_csv(outputs["csv"], summary.split_statistics(manifests))
     mi, _ = require_mitsuba(params["device"])
@@ -85,6 +65,8 @@ def ndr_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 
 def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Train variant ``params["variant"]`` on the ``train`` and ``val`` split files."""
+    from neurender.ndr.training import train_variant
+
     train_variant(
         params["variant"],
         _split_files(inputs, "train"),
@@ -101,6 +83,12 @@ def ndr_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 def ndr_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Score every variant (``checkpoint_<variant>``) on its test split; the per-sample
     scores, NDR's timing table, the comparison figure and the training curves."""
+    from neurender.devices import resolve_device
+    from neurender.ndr import figures, summary
+    from neurender.ndr.buffers import NDRDataset
+    from neurender.ndr.evaluate import score_split
+    from neurender.ndr.model import load_model
+
     device = resolve_device(params["device"], threads)
     checkpoints = {v: inputs[f"checkpoint_{v}"] for v in params["variants"]}
     rows, per_sample, tests = [], [], {}
@@ -136,6 +124,13 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     (:mod:`neurender.deployment`). One job for all variants: their times are taken back to
     back under the same load, and re-exporting all of them costs little beside retraining
     the one variant that triggers it."""
+    import torch
+
+    from neurender.deployment import deployment_table
+    from neurender.ndr import deploy
+    from neurender.ndr.buffers import NDRDataset
+    from neurender.ndr.model import load_model
+
     cpu = torch.device("cpu")
     examples, rows = {}, []
     for variant, onnx_out in zip(params["variants"], outputs["onnx"], strict=True):
@@ -158,6 +153,13 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     (:mod:`neurender.ndr.graph_scores`). NDR's DSSIM: the evaluation's per-sample
     ``samples`` for the float32 network, the int8 graph's own scores for it; Mitsuba's
     against the test split's references. The table and the figure."""
+    from neurender.devices import resolve_device
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.ndr import equal_quality, graph_scores
+    from neurender.ndr.buffers import NDRDataset
+    from neurender.ndr.model import load_model
+    from neurender.nn.inference import OnnxNetwork
+
     mi, dr = require_mitsuba(params["device"])
     dr.set_thread_count(threads)
     device = resolve_device(params["device"], threads)
@@ -211,6 +213,8 @@ def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None
     """The targets: the test metrics, the speed against Mitsuba (``equal_quality``) and the
     stage's time from every NDR job's benchmark (its threads in ``params["job_threads"]``)
     on ``params["cores"]`` cores."""
+    from neurender.ndr import summary
+
     minutes = summary.stage_minutes(inputs["benchmarks"], params["job_threads"], params["cores"])
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
     columns = ["model", "split", "setting", "bound", "metric", "value"]
@@ -222,6 +226,11 @@ def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Test sample ``relight_sample`` under ``relight_turns`` rotations of its map: the
     scores of NDR and of the shading input per rotation, and the figure."""
+    from neurender.devices import resolve_device
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.ndr import figures, relight
+    from neurender.ndr.model import SHADING_INPUT, load_model
+
     mi, _ = require_mitsuba(params["device"])
     sample = params["relight_sample"]
     shifts, degrees = relight.rotations(params["environment_height"], params["relight_turns"])
@@ -244,6 +253,13 @@ def ndr_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The report's interactive view (:mod:`neurender.ndr.viewer`): test sample
     ``relight_sample`` under its map turned in :data:`neurender.viewer_data.TURNS` steps
     (at most one per map column), by Mitsuba, NDR (``checkpoint``) and the shading input."""
+    from neurender import viewer_data
+    from neurender.devices import resolve_device
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.ndr import relight
+    from neurender.ndr.model import load_model
+    from neurender.ndr.viewer import relight_view
+
     mi, _ = require_mitsuba(params["device"])
     sample = params["relight_sample"]
     turns = min(viewer_data.TURNS, 2 * params["environment_height"])
@@ -264,6 +280,10 @@ def ndr_user_objects(inputs: dict, outputs: dict, params: dict, threads: int) ->
     real-world-like maps and the user's maps (:func:`user_objects.object_maps`): Mitsuba's
     reference, NDR (``checkpoint``) and the shading input; the scores per map, their means
     per object and map set, and the figure "your objects"."""
+    from neurender.devices import resolve_device
+    from neurender.ndr import figures, pool, user_objects
+    from neurender.ndr.model import load_model
+
     if not params["user_objects"]:
         raise ValueError("ndr.user_objects is empty: name at least one mesh file to render")
     defaults = params["user_object_defaults"]

@@ -1,9 +1,9 @@
 """DeepPRT's data jobs, one per rule of ``workflow/rules/prt.smk``: light probes, geometry
 images, deformation sequences, ray-traced transfer, MoMoPRT and the ray-tracing benchmark.
 
-They import neither torch nor the model code, so the many small jobs that build the data
-start in a fraction of a second; the model and evaluation jobs are in
-:mod:`neurender.prt.jobs`. Signatures and files as there.
+They import neither torch nor the model code, and each imports the modules it drives when
+it runs, so the many small jobs that build the data start in a fraction of a second; the
+model and evaluation jobs are in :mod:`neurender.prt.jobs`. Signatures and files as there.
 """
 
 from __future__ import annotations
@@ -11,19 +11,18 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from neurender import io, lights, sh
-from neurender.prt import animations, frames, objects, transfer
-from neurender.prt.benchmark import run_benchmark
-from neurender.prt.geometry_image import parametrise, reconstruction_error, resample
-from neurender.prt.momoprt import fit_momoprt
-from neurender.prt.sequences import build_sequences, user_sequences
-from neurender.shapes import BLENDSHAPES, SourceMesh
+from neurender import io
+from neurender.prt import frames
 from neurender.tables import tidy_rows
+
+if TYPE_CHECKING:
+    from neurender.prt import animations
 
 log = logging.getLogger(__name__)
 
@@ -31,17 +30,11 @@ log = logging.getLogger(__name__)
 REPAIRS = ("welded_vertices", "dropped_faces", "reoriented_faces", "seam_edges", "split_edges")
 
 
-def split_frames(inputs: dict, seq: dict, split: str, n_bands: int) -> frames.Split:
-    """A split's frames from a job's inputs (``{split}_dir``, ``{split}_manifest``) and
-    its sequence's deformation parameters."""
-    return frames.load_split(
-        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands
-    )
-
-
 def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """A light probe (built in, or the user's EXR ``source``, ``prt.user_probes.<probe>``)
     and its SH projection."""
+    from neurender import lights, sh
+
     source = inputs.get("source")
     image = (
         lights.load_probe(source, f"prt.user_probes.{params['probe']}")
@@ -54,6 +47,8 @@ def prt_probe(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 
 def _user_sequence(inputs: dict, name: str) -> tuple[animations.Frames, animations.Frames | None]:
     """A user animation's frames and separate test frames, checked up front."""
+    from neurender.prt import animations
+
     return animations.load_sequence(
         inputs["frames"], inputs.get("test_frames", []), f"prt.user_sequences.{name}"
     )
@@ -64,6 +59,10 @@ def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) 
     user's animation ``frames``) made a disk, parametrised on the square and resampled,
     with its blendshapes, on the ``resolution^2`` grid; the grid's lookup (``face``,
     ``bary`` in the source triangles) resamples every other frame the same way."""
+    from neurender.prt import objects
+    from neurender.prt.geometry_image import parametrise, reconstruction_error
+    from neurender.shapes import BLENDSHAPES, SourceMesh
+
     start = time.perf_counter()
     name, n, seed = params["object"], params["resolution"], params["seed"]
     counts = {}
@@ -131,6 +130,9 @@ def prt_geometry_image(inputs: dict, outputs: dict, params: dict, threads: int) 
 def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Deformation frames of every split (:mod:`neurender.prt.sequences`); a user
     animation's frames resampled through its geometry image's lookup."""
+    from neurender.prt.geometry_image import resample
+    from neurender.prt.sequences import build_sequences, user_sequences
+
     gim = io.load_npz(inputs["gim"])
     name = params["object"]
     if "frames" in inputs:
@@ -154,6 +156,8 @@ def prt_sequence(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 def prt_transfer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Ray-traced diffuse and glossy transfer of every frame of a split, one EXR per frame,
     and the split's manifest."""
+    from neurender.prt import transfer
+
     name, split, directions = params["object"], params["split"], params["directions"]
     seq = io.load_npz(inputs["seq"])
     positions = seq[f"{split}_positions"]
@@ -186,9 +190,11 @@ def prt_transfer(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
 
 def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """MoMoPRT fitted on the train split, on blendshape weights where the object has them."""
+    from neurender.prt.momoprt import fit_momoprt
+
     seq = io.load_npz(inputs["seq"])
     train_split, val_split = (
-        split_frames(inputs, seq, s, params["n_bands"]) for s in ("train", "val")
+        frames.split_frames(inputs, seq, s, params["n_bands"]) for s in ("train", "val")
     )
     use_params = str(seq["kind"]) in ("head", "head_linear", "head_excluded")
     model = fit_momoprt(
@@ -203,5 +209,7 @@ def prt_momoprt(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 
 
 def prt_benchmark(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    from neurender.prt.benchmark import run_benchmark
+
     light = frames.read_sh_light(inputs["light"])
     run_benchmark(inputs["seq"], light, params, threads, outputs["csv"])

@@ -136,3 +136,11 @@ def ray_offset(positions: np.ndarray, relative: float) -> float:
     """Origin offset in world units: ``relative`` times the rest shape's bounding-box diagonal."""
     p = positions.reshape(-1, 3)
     return relative * float(np.linalg.norm(p.max(0) - p.min(0)))
+
+
+def split_frames(inputs: dict, seq: dict, split: str, n_bands: int) -> Split:
+    """A split's frames from a job's inputs (``{split}_dir``, ``{split}_manifest``) and
+    its sequence's deformation parameters."""
+    return load_split(
+        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands
+    )

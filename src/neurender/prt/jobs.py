@@ -4,7 +4,9 @@ the data (probes, geometry images, sequences, transfer, MoMoPRT) are in
 :mod:`neurender.prt.data_jobs`, which loads no torch.
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
-``(inputs, outputs, params, threads)``. Their files are under ``results/prt/``:
+``(inputs, outputs, params, threads)``. Each imports the modules it drives when it runs,
+so a job loads only the libraries it uses (torch alone takes 1 to 2 s to import on a
+laptop core, longer than many a job's own work). Their files are under ``results/prt/``:
 ``probes/`` (the light probes and their SH), ``<object>/`` (geometry image, sequence,
 one folder of frames and a manifest per split, scores, deployment rows, the shipped
 networks ``deepprt_<material>``, every variant's networks in ``variants/``) and
@@ -17,42 +19,28 @@ from __future__ import annotations
 import dataclasses
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from neurender import io, train, viewer_data
-from neurender.deployment import deployment_table, read_deployment
-from neurender.prt import (
-    MATERIALS,
-    SPLITS,
-    VARIANTS,
-    figures,
-    frames,
-    int8_name,
-    noise,
-    summary,
-    unseen,
-    unseen_scores,
-    unshadowed,
-)
-from neurender.prt.data_jobs import split_frames
-from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
-from neurender.prt.experiments import path_coordinate, path_rows, relight_rows
-from neurender.prt.local_model import LocalConfig
-from neurender.prt.model import DeepPRT, export_deepprt, export_int8
+from neurender import io
+from neurender.prt import MATERIALS, SPLITS, VARIANTS, frames, int8_name
+from neurender.prt.frames import split_frames
 from neurender.prt.momoprt import MoMoPRT
-from neurender.prt.scores import aggregate, score_frames
-from neurender.prt.training import shadowing_training, train_deepprt, train_local
-from neurender.prt.viewer import prt_view
 from neurender.tables import tidy_rows
+
+if TYPE_CHECKING:
+    from neurender.prt.model import DeepPRT
 
 log = logging.getLogger(__name__)
 
 
 def prt_noise_floor(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The noise floor of the training-quality ground truth (:mod:`neurender.prt.noise`)."""
+    from neurender.prt import noise
+
     positions = io.load_npz(inputs["seq"])["test_positions"]
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
     rows = noise.noise_floor_rows(
@@ -62,6 +50,8 @@ def prt_noise_floor(inputs: dict, outputs: dict, params: dict, threads: int) -> 
 
 
 def prt_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    from neurender.prt import figures
+
     figures.frames_figure(
         params["object"], inputs["frames"], inputs["light"], params["n_bands"], outputs["png"]
     )
@@ -69,6 +59,8 @@ def prt_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 
 def prt_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The object's geometry-image mesh and deformation frames in 3D (PyVista)."""
+    from neurender.prt import figures
+
     gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
     figures.meshes_figure(
         params["object"], gim["rest"], seq["train_positions"], seq["test_positions"], outputs["png"]
@@ -76,11 +68,15 @@ def prt_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> 
 
 
 def prt_probes_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    from neurender.prt import figures
+
     figures.probes_figure(inputs["exrs"], inputs["sh"], outputs["png"])
 
 
 def prt_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Per-object data statistics and the noise floor of every object in two tables."""
+    from neurender.prt import summary
+
     io.write_csv(outputs["data"], summary.data_table(inputs["gim"], inputs["manifests"]))
     noise_rows = pd.concat([io.read_csv(p) for p in inputs["noise"]], ignore_index=True)
     io.write_csv(outputs["noise"], noise_rows.drop(columns="frame"))
@@ -95,6 +91,10 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     ``shadowing``, the unshadowed transfer plus a local network
     (:func:`~neurender.prt.training.train_local`, ``shadowing_batch_size`` and
     ``shadowing_lr``; glossy reads the SH ``light``)."""
+    from neurender.prt.local_model import LocalConfig
+    from neurender.prt.model import export_deepprt, export_int8
+    from neurender.prt.training import shadowing_training, train_deepprt, train_local
+
     seq = io.load_npz(inputs["seq"])
     train_split, val_split = (
         split_frames(inputs, seq, s, params["n_bands"]) for s in ("train", "val")
@@ -146,6 +146,9 @@ def _evaluation_scores(
 ) -> tuple[pd.DataFrame, dict, frames.Split]:
     """Per-frame scores of every network (keys ``(model name, material)``), MoMoPRT and
     the noise floor on val and test, Fig. 7's panels and the test split."""
+    from neurender.prt import noise
+    from neurender.prt.scores import score_frames
+
     name, n_bands = params["object"], params["n_bands"]
     linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
     rows, panels = [], {}
@@ -174,6 +177,8 @@ def _networks(
     the float32 graph on ``params["device"]`` (PyTorch) and the int8 graph
     (:func:`neurender.prt.int8_name`, ONNX Runtime on the CPU whatever the device); their
     ONNX files by the same keys; the checkpoints by ``(variant, material)``."""
+    from neurender.prt.model import DeepPRT
+
     checkpoints = _variant_files(params["variants"], inputs["deepprt"])
     graphs = {"onnx": VARIANTS, "int8": {v: int8_name(m) for v, m in VARIANTS.items()}}
     nets, files = {}, {}
@@ -192,6 +197,10 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
     frame (``frames``), their means with each network's training budget
     (``epochs_<material>``) (``scores``), and Fig. 7. Times nothing: the rule runs on one
     thread beside other jobs (:func:`prt_equal_quality` times)."""
+    from neurender import train
+    from neurender.prt import figures
+    from neurender.prt.scores import aggregate
+
     name, variants = params["object"], params["variants"]
     seq = io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
@@ -215,6 +224,9 @@ def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     (:mod:`neurender.prt.equal_quality`), all on this job's ``threads`` (the rule takes
     every core); the object's ``metrics``: the evaluation's ``scores`` and the timing rows;
     its ``deployment`` rows (each network's times and ONNX file)."""
+    from neurender.deployment import deployment_table
+    from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
+
     name, variants = params["object"], params["variants"]
     seq = io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
@@ -254,6 +266,9 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     (their int8 forms' too, ``shipped_int8``), the equal-quality figure, and the targets
     of the shipped variant (``params["shipped"]``), the unseen-deformation benchmark's
     (``unseen``, :mod:`neurender.prt.unseen_scores`) too."""
+    from neurender.deployment import read_deployment
+    from neurender.prt import figures, summary
+
     names, variants = params["objects"], params["variants"]
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
@@ -294,6 +309,12 @@ def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> N
     """Paper section 4.2.2 / Fig. 6: diffuse L2-RGB along the experiment's test path for
     every variant's diffuse network (``params["variants"]``) and MoMoPRT; each network's
     ``deployment`` row (timed as in :func:`prt_evaluate`)."""
+    from neurender.deployment import deployment_table
+    from neurender.prt import figures
+    from neurender.prt.equal_quality import deployment_rows, inference_seconds
+    from neurender.prt.experiments import path_coordinate, path_rows
+    from neurender.prt.model import DeepPRT
+
     name = params["object"]
     seq = io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
@@ -320,6 +341,10 @@ def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> N
 
 def prt_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Paper Fig. 2: test frame 0 relit while the light blends from one probe to another."""
+    from neurender.prt import figures
+    from neurender.prt.experiments import relight_rows
+    from neurender.prt.model import DeepPRT
+
     if len(inputs["probes"]) < 2:
         raise ValueError(f"dynamic lighting needs two light probes, got {inputs['probes']}")
     seq = io.load_npz(inputs["seq"])
@@ -340,6 +365,9 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     predict: on positions for every family, on blendshape weights for ``extrapolation``)
     and the unshadowed, static and disk-occlusion baselines; the table and the
     error-against-strength figure (paper Fig. 6 generalised)."""
+    from neurender.prt import figures, unseen, unseen_scores, unshadowed
+    from neurender.prt.model import DeepPRT
+
     name, n_bands = params["object"], params["n_bands"]
     gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], n_bands)
@@ -402,6 +430,10 @@ def prt_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The report's interactive view of one object (:mod:`neurender.prt.viewer`): test
     frame 0 as a mesh with the diffuse transfer of the ground truth, DeepPRT and MoMoPRT,
     and every probe (``probes``: ``<name>_sh.csv`` files) turned about +y."""
+    from neurender import viewer_data
+    from neurender.prt.model import DeepPRT
+    from neurender.prt.viewer import prt_view
+
     n_bands, name = params["n_bands"], params["object"]
     seq = io.load_npz(inputs["seq"])
     data = split_frames(inputs, seq, "test", n_bands)

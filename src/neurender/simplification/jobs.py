@@ -1,41 +1,33 @@
 """The simplification stage's jobs, one per rule of ``workflow/rules/simplification.smk``.
 
 Each job is named after its rule and has the signature of :data:`neurender.jobs.Job`:
-``(inputs, outputs, params, threads)``. Use cases: ``head`` (normal-map baking and joint
-simplification of the detailed head, grey Lambertian), ``metaballs`` (a ray-marched
-implicit surface converted to a textured mesh: albedo and normal maps) and each user asset
-(a mesh file with its material, ``params["asset"]``, also a textured mesh); see
-:mod:`neurender.simplification.assets`.
+``(inputs, outputs, params, threads)``; each imports the modules it drives when it runs,
+so a job loads only the libraries it uses (torch, Mitsuba, PyVista). Use cases: ``head``
+(normal-map baking and joint simplification of the detailed head, grey Lambertian),
+``metaballs`` (a ray-marched implicit surface converted to a textured mesh: albedo and
+normal maps) and each user asset (a mesh file with its material, ``params["asset"]``, also
+a textured mesh); see :mod:`neurender.simplification.assets`.
 """
 
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from neurender import io, viewer_data
-from neurender.mitsuba_setup import require_mitsuba
-from neurender.simplification import (
-    CASE_FILES,
-    EXPORT_FILES,
-    assets,
-    bake,
-    evaluate,
-    export,
-    figures,
-    formats,
-    mesh_ops,
-    optimise,
-    summary,
-    views,
-)
-from neurender.simplification.viewer import simplification_view
+from neurender import io
+from neurender.simplification import CASE_FILES, EXPORT_FILES
+
+if TYPE_CHECKING:
+    from neurender.simplification import views
 
 
 def case_views(cfg: dict, case: str, split: str, kind: str) -> list[views.View]:
     """Training or test views of a use case, over the asset's camera range ``kind``."""
+    from neurender.simplification import assets, views
+
     count = cfg["train_views"] if split == "train" else cfg["test_views"]
     return views.sample_views(
         count,
@@ -52,6 +44,9 @@ def case_views(cfg: dict, case: str, split: str, kind: str) -> list[views.View]:
 def simplification_prepare(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Reference images (train/test EXR + view CSVs), the QEM atlas
     mesh and the classic bakes of one use case."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.simplification import assets, bake, formats, mesh_ops, views
+
     started = time.perf_counter()
     case = params["case"]
     mi, _ = require_mitsuba(params["device"])
@@ -91,6 +86,9 @@ def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: 
     starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
     of their own albedo), else from grey; an asset of uniform albedo (stored with its
     ``lowpoly`` file) keeps it."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.simplification import export, formats, optimise, views
+
     case = params["case"]
     mi, dr = require_mitsuba(params["device"])
     # One Dr.Jit thread makes the gradient scatter-adds, and so the result, deterministic.
@@ -130,6 +128,9 @@ def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: 
     the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
     the stage's timings on the job's ``threads`` cores (the workflow's; the optimisation
     jobs ran with ``params["optimise_threads"]`` each), and the targets."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.simplification import evaluate, figures, summary
+
     started = time.perf_counter()
     mi, dr = require_mitsuba(params["device"])
     rows, crops = [], {}
@@ -161,6 +162,10 @@ def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: in
     the reference (rebuilt from the case's keys, or read from the user's file) and the
     QEM, classic-bake and optimised meshes with their triangle counts and held-out PSNR
     (``metrics``)."""
+    from neurender import viewer_data
+    from neurender.simplification import assets
+    from neurender.simplification.viewer import simplification_view
+
     case = params["case"]
     asset = assets.load(case, params)
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "split", "metric", "value"])
@@ -175,6 +180,8 @@ def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: in
 
 def simplification_mesh_figure(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The case's reference, QEM and optimised meshes in 3D with wireframes (PyVista)."""
+    from neurender.simplification import assets, figures, formats
+
     asset = assets.load(params["case"], params)
     low = formats.load_lowpoly(inputs["lowpoly"])
     ours = io.load_npz(inputs["mesh"])["positions"]
