@@ -110,6 +110,23 @@ def test_collect_holds_every_field_and_the_marked_start(repo):
     assert provenance.read(out) == json.loads(json.dumps(record))
 
 
+def test_the_job_writes_what_collect_gathers_for_the_rules_params(repo):
+    from neurender.report import jobs
+
+    marker = repo / "results" / "logs" / "started.json"
+    provenance.mark_start(marker, 2)
+    params = {"config": {"seed": 7}, "configfiles": ["config/config.yaml"], "root": str(repo)}
+    params["start_marker"] = str(marker)
+    out = repo / "results" / "provenance.json"
+    jobs.provenance({"tables": ["ignored.csv"]}, {"json": str(out)}, params, 1)
+    written = provenance.read(out)
+    gathered = provenance.collect(params["config"], params["configfiles"], repo, marker)
+    assert {k: v for k, v in written.items() if k != "finished"} == {
+        k: v for k, v in json.loads(json.dumps(gathered)).items() if k != "finished"
+    }
+    assert written["machine"]["snakemake_cores"] == 2 and written["config"] == {"seed": 7}
+
+
 def test_read_names_a_missing_or_broken_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="provenance file .*gone.json"):
         provenance.read(tmp_path / "gone.json")

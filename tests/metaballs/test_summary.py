@@ -1,6 +1,9 @@
+import numpy as np
 import pandas as pd
+from PIL import Image
 
-from neurender.metaballs import summary
+from neurender import io
+from neurender.metaballs import jobs, summary
 from neurender.tables import TARGET_COLUMNS
 
 
@@ -8,7 +11,7 @@ def _metrics(rows):
     return pd.DataFrame(rows, columns=["model", "metric", "value"])
 
 
-def test_targets_state_each_check_as_met_or_missed():
+def test_targets_state_each_check_as_met_or_missed(tmp_path):
     metrics = _metrics(
         [
             ("good", "iou_depth", 0.99),
@@ -33,6 +36,12 @@ def test_targets_state_each_check_as_met_or_missed():
         columns=["model", "setting", "metric", "value"],
     )
     table = summary.targets(metrics, timing, equal, width=128)
+    # The job reads the three files and writes the same table.
+    files = {name: tmp_path / f"{name}.csv" for name in ("metrics", "timing", "equal_quality")}
+    for name, frame in zip(files, (metrics, timing, equal), strict=True):
+        io.write_csv(files[name], frame)
+    jobs.metaballs_targets(files, {"targets": tmp_path / "targets.csv"}, {"width": 128}, 1)
+    pd.testing.assert_frame_equal(io.read_csv(tmp_path / "targets.csv"), table)
     assert list(table.columns) == list(TARGET_COLUMNS)
     assert set(table.subject) == {"good", "bad"}  # baselines are not checked
     assert not table.check.str.contains("epochs").any()
@@ -122,3 +131,21 @@ def test_the_count_of_empty_frames_is_no_score_to_beat():
     table = summary.targets(metrics, _metrics([]), equal, width=128)
     assert not table.check.str.contains("empty_frames").any()
     assert table.met.all()
+
+
+def test_the_data_job_summarises_every_split_and_draws_the_first_examples(tmp_path, write_split):
+    for split, count in (("train", 3), ("test", 2)):
+        write_split(split, count)
+    splits = ("train", "test")
+    inputs = {
+        "manifests": [str(tmp_path / f"{s}_manifest.csv") for s in splits],
+        "examples": [str(tmp_path / s) for s in splits],
+    }
+    outputs = {"csv": tmp_path / "data.csv", "figure": tmp_path / "examples.png"}
+    jobs.metaballs_summary(inputs, outputs, {}, 1)
+    data = io.read_csv(outputs["csv"])
+    examples = data[data.metric == "examples"].set_index("split")["value"]
+    assert examples.to_dict() == {"train": 3, "test": 2}
+    balls = data[data.metric == "balls_mean"].set_index("split")["value"]
+    assert balls.between(2, 4).all()  # the scene keys' ball counts
+    assert np.asarray(Image.open(outputs["figure"]).convert("RGB")).std() > 1

@@ -343,3 +343,100 @@ def test_equal_quality_writes_a_deployment_row_per_network_and_material(evaluate
     # Two variants, each float32 and int8, each diffuse and glossy.
     assert len(deployment) == 2 * 2 * 2
     assert deployment.network.is_unique
+
+
+def _image(path) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(path).convert("RGB"), np.float32)
+
+
+def test_the_noise_floor_compares_two_16_direction_samples_with_the_64_direction_reference(
+    evaluated, head
+):
+    out = head / "noise_floor.csv"
+    inputs = {"seq": head / "seq.npz", "reference": head / "test", "light": head / "sky_sh.csv"}
+    params = {**CFG, "object": "head", "directions": 16, "noise_floor_frames": 1}
+    jobs.prt_noise_floor(inputs, {"csv": out}, params, 1)
+    value = io.read_csv(out).set_index("metric")["value"]
+    # Two independent 16-direction estimates differ from each other and from the reference,
+    # but far less than unrelated images: SSIM in (0.3, 1), L1 positive.
+    for metric in ("ssim_sample_vs_sample", "ssim_sample_vs_reference"):
+        assert 0.3 < value[metric] < 1.0
+    assert (value[[m for m in value.index if m.startswith("l1_")]] > 0).all()
+
+
+def test_the_data_summary_counts_each_splits_frames_and_copies_the_noise_floor(head, tmp_path):
+    noise = pd.DataFrame(
+        {"method": "prt", "object": "head", "model": "gt", "split": "test"}
+        | {"metric": ["ssim_sample_vs_sample"] * 2, "frame": [0, 1], "value": [0.9, 0.8]}
+    )
+    io.write_csv(tmp_path / "noise_floor.csv", noise)
+    _transfer(head, "sky_sh.csv", "summary_test", 1)
+    manifest = head / "summary_test.csv"
+    outputs = {"data": tmp_path / "data.csv", "noise": tmp_path / "noise.csv"}
+    inputs = {
+        "gim": [head / "gim.csv"],
+        "manifests": [manifest],
+        "noise": [tmp_path / "noise_floor.csv"],
+    }
+    jobs.prt_summary(inputs, outputs, {}, 1)
+    data = io.read_csv(outputs["data"])
+    gt = data[data.model == "ray-traced ground truth"].set_index("metric")["value"]
+    assert gt["frames"] == CFG["frames"]["test"] and gt["directions"] == 16
+    pd.testing.assert_frame_equal(io.read_csv(outputs["noise"]), noise.drop(columns="frame"))
+
+
+def test_the_relit_frame_blends_two_probes_and_scores_each_blend(evaluated, trained, head):
+    data_jobs.prt_probe(
+        {}, {"exr": head / "dusk.exr", "sh": head / "dusk_sh.csv"}, {**CFG, "probe": "sunset"}, 1
+    )
+    _, files = trained
+    inputs = {
+        "seq": head / "seq.npz",
+        "test_dir": head / "test",
+        "test_manifest": head / "test_manifest.csv",
+    }
+    inputs |= {"deepprt": files["shadowing", "diffuse"]["checkpoint"]}
+    inputs |= {"onnx": files["shadowing", "diffuse"]["onnx"]}
+    inputs |= {"probes": [head / "sky_sh.csv", head / "dusk_sh.csv"]}
+    outputs = {"csv": head / "relight.csv", "figure": head / "relight.png"}
+    jobs.prt_relight(inputs, outputs, {**EVALUATE, "n_bands": CFG["n_bands"]}, 1)
+    table = io.read_csv(outputs["csv"])
+    assert table.value.between(-1, 1).all() and len(table) >= 2
+    assert _image(outputs["figure"]).std() > 0
+    with pytest.raises(ValueError, match="dynamic lighting needs two light probes"):
+        jobs.prt_relight({**inputs, "probes": inputs["probes"][:1]}, outputs, EVALUATE, 1)
+
+
+def test_the_frames_and_probes_figures_draw_the_data(head):
+    _transfer(head, "sky_sh.csv", "figure_test", 1)
+    params = {"object": "head", "n_bands": CFG["n_bands"]}
+    jobs.prt_figure(
+        {"frames": head / "figure_test", "light": head / "sky_sh.csv"},
+        {"png": head / "frames.png"},
+        params,
+        1,
+    )
+    jobs.prt_probes_figure(
+        {"exrs": [head / "sky.exr"], "sh": [head / "sky_sh.csv"]},
+        {"png": head / "probes.png"},
+        {},
+        1,
+    )
+    for png in ("frames.png", "probes.png"):
+        assert _image(head / png).std() > 1  # drawn, not blank
+
+
+def test_the_ray_tracing_benchmark_times_the_stage_and_embree(head, tmp_path):
+    out = tmp_path / "benchmark.csv"
+    params = {**CFG, "object": "head", "directions": 16, "benchmark_paper_scale": False}
+    data_jobs.prt_benchmark(
+        {"seq": head / "seq.npz", "light": head / "sky_sh.csv"}, {"csv": out}, params, 1
+    )
+    value = io.read_csv(out).set_index("metric")["value"]
+    assert value["stage_rays_per_s"] > 0 and value["embree_rays_per_s"] > 0
+    fraction = value["stage_rays_per_s"] / value["embree_rays_per_s"]
+    assert value["stage_fraction_of_embree"] == pytest.approx(fraction)
+    assert value["target_met"] == float(fraction >= value["target_fraction"])
+    assert value["seconds_per_frame"] > 0

@@ -1,0 +1,114 @@
+"""NDR's data, evaluation, relighting and targets jobs as the workflow calls them, on two
+16-pixel samples (the equal-quality, deploy, viewer and training jobs: their own files)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+from PIL import Image
+
+from neurender import io
+from neurender.ndr import data, jobs, summary
+from neurender.ndr.buffers import NDRDataset
+from neurender.ndr.evaluate import NOISE_FLOOR, score_split
+from neurender.ndr.model import SHADING_INPUT
+
+from .test_equal_quality import CFG
+
+TRAIN = {"seed": 0, "device": "cpu", "variant": "ndr", "mask_erosion": 1, "epochs": 1}
+TRAIN |= {"batch_size": 2, "lr": 1e-3, "lr_schedule": "constant", "widths": [4, 8]}
+TRAIN |= {"sh_hidden": 8, "shading_residual": True}
+
+
+def _files(root, split: str) -> dict[str, str]:
+    return {k: str(root / f"{split}_{k}") for k in ("dir", "manifest", "lighting")}
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """The train and test splits of two samples each, rendered by the data job; NDR
+    trained one epoch on them; its checkpoint and loss curve."""
+    root = tmp_path_factory.mktemp("ndr_jobs")
+    for split in ("train", "test"):
+        files = _files(root, split)
+        outputs = {"samples": files["dir"], "manifest": files["manifest"]}
+        outputs["lighting"] = files["lighting"]
+        jobs.ndr_data({}, outputs, CFG | {"split": split, "count": 2}, 1)
+    split = {
+        f"{part}_{k}": v for part in ("train", "val") for k, v in _files(root, "train").items()
+    }
+    model = {"checkpoint": str(root / "ndr.pt"), "loss": str(root / "ndr_loss.csv")}
+    jobs.ndr_train(split, model, TRAIN, 1)
+    return root, model
+
+
+def test_the_data_job_renders_the_split_and_count_it_is_given(rendered, tmp_path):
+    root, _ = rendered
+    manifest = io.read_csv(_files(root, "test")["manifest"])
+    assert len(manifest) == 2
+    # The same split drawn by the data module itself: the job adds nothing of its own.
+    files = _files(tmp_path, "test")
+    data.generate_split(CFG, "test", 2, files["dir"], files["manifest"], files["lighting"], 1)
+    job, direct = (NDRDataset.from_files(f, 0).buffers for f in (_files(root, "test"), files))
+    assert job.keys() == direct.keys()
+    for key in job:
+        torch.testing.assert_close(job[key], direct[key], rtol=0, atol=0)
+
+
+@pytest.fixture(scope="module")
+def evaluated(rendered):
+    """The evaluation job's outputs for NDR trained on the rendered splits."""
+    root, model = rendered
+    inputs = {f"test_{k}": v for k, v in _files(root, "test").items()}
+    inputs |= {"train_manifest": _files(root, "train")["manifest"]}
+    inputs |= {"checkpoint_ndr": model["checkpoint"], "loss_ndr": model["loss"]}
+    outputs = {name: str(root / f"eval_{name}.csv") for name in ("metrics", "samples", "timing")}
+    outputs |= {"figure": str(root / "comparison.png"), "curves": str(root / "curves.png")}
+    params = {"device": "cpu", "variants": ["ndr"], "mask_erosion": 1}
+    jobs.ndr_evaluate(inputs, outputs, params, 1)
+    return outputs
+
+
+def test_the_evaluation_scores_ndr_beside_its_baselines_and_times_it(rendered, evaluated):
+    root, model = rendered
+    metrics = io.read_csv(evaluated["metrics"])
+    assert {"ndr", NOISE_FLOOR, SHADING_INPUT} <= set(metrics.model)
+    # The table is the evaluation module's scores of the same split and checkpoint.
+    test = NDRDataset.from_files(_files(root, "test"), 1)
+    scored = score_split("complex", test, {"ndr": model["checkpoint"]}, torch.device("cpu"))
+    pd.testing.assert_frame_equal(metrics, pd.DataFrame(scored.rows), check_dtype=False)
+    timing = io.read_csv(evaluated["timing"]).set_index("metric")["value"]
+    assert (timing.filter(like="seconds") > 0).all()
+    for png in ("figure", "curves"):
+        assert np.asarray(Image.open(evaluated[png]).convert("RGB")).std() > 1
+
+
+def test_relighting_scores_ndr_and_the_shading_input_at_every_turn(rendered):
+    root, model = rendered
+    outputs = {"csv": str(root / "relight.csv"), "figure": str(root / "relight.png")}
+    params = CFG | {"relight_sample": 0, "relight_turns": 2, "mask_erosion": 1}
+    jobs.ndr_relight({"checkpoint": model["checkpoint"]}, outputs, params, 1)
+    table = io.read_csv(outputs["csv"])
+    assert set(table.model) == {"ndr", SHADING_INPUT}
+    assert table.groupby(["model", "metric"]).size().eq(2).all()  # one row per turn
+    assert (table[table.metric == "dssim_I_R"].value.between(0, 1)).all()
+
+
+def test_targets_read_the_metrics_equal_quality_table_and_stage_time(evaluated, tmp_path):
+    equal = pd.DataFrame(
+        columns=["dataset", "model", "split", "setting", "bound", "metric", "value"]
+    )
+    io.write_csv(tmp_path / "equal.csv", equal)
+    benchmark = tmp_path / "b.tsv"
+    benchmark.write_text("s\th:m:s\n60.0\t0:01:00\n")
+    inputs = {"metrics": evaluated["metrics"], "equal_quality": str(tmp_path / "equal.csv")}
+    inputs["benchmarks"] = [str(benchmark)] * 2
+    params = {"job_threads": [2, 1], "cores": 2}
+    jobs.ndr_targets(inputs, {"targets": str(tmp_path / "targets.csv")}, params, 1)
+    metrics = io.read_csv(evaluated["metrics"])
+    expected = summary.targets(metrics, equal, 1.5, 2)  # (60 s x 2 + 60 s x 1) / 2 cores
+    pd.testing.assert_frame_equal(
+        io.read_csv(tmp_path / "targets.csv"), expected, check_dtype=False
+    )
+    stage = expected[expected.check.str.startswith("whole NDR stage")]
+    assert stage.measured.tolist() == [1.5]
