@@ -2,8 +2,10 @@
 the renderer renders, one image at a time for the GAN-trained one."""
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
+from PIL import Image
 
 from neurender.deployment import COLUMNS, read_deployment
 from neurender.metaballs import VARIANTS, jobs, scenes
@@ -80,3 +82,29 @@ def test_a_cpu_renderer_given_its_shipped_graph_runs_that_graph(deployed):
     x = other.inputs(scene)[None]
     expected = MetaballRenderer(inputs["checkpoints"][1], "cpu")(x).numpy()
     np.testing.assert_allclose(other(x).numpy(), expected, atol=1e-4)
+
+
+def test_the_demo_times_every_network_against_ray_marching_and_draws_its_figures(
+    deployed, tmp_path
+):
+    inputs, outputs = deployed
+    params = {"seed": 1, "device": "cpu", "width": WIDTH, "radius": [1, 2], **KERNEL}
+    params |= {"demo_frames": 2, "demo_balls": 3, "timing_balls": [2, 5]}
+    files = {name: str(tmp_path / f"{name}.csv") for name in ("frames", "timing", "balls")} | {
+        name: str(tmp_path / f"{name}.png") for name in ("balls_png", "strip", "stability")
+    }
+    files["gif"] = str(tmp_path / "demo.gif")
+    jobs.metaballs_demo(
+        {"checkpoints": inputs["checkpoints"], "onnx": outputs["onnx"]}, files, params, 1
+    )
+    balls = pd.read_csv(files["balls"])
+    assert sorted(set(balls.balls)) == [2, 5]  # every count timed
+    assert (balls.ms_per_frame > 0).all()
+    timing = pd.read_csv(files["timing"])
+    assert set(VARIANTS) <= set(timing.model)
+    frames = pd.read_csv(files["frames"])
+    assert frames.frame.nunique() == 2
+    gif = Image.open(files["gif"])
+    assert gif.n_frames == 2
+    for png in ("balls_png", "strip", "stability"):
+        assert np.asarray(Image.open(files[png]).convert("RGB")).std() > 1

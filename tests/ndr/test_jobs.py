@@ -112,3 +112,49 @@ def test_targets_read_the_metrics_equal_quality_table_and_stage_time(evaluated, 
     )
     stage = expected[expected.check.str.startswith("whole NDR stage")]
     assert stage.measured.tolist() == [1.5]
+
+
+def test_the_data_summary_counts_each_splits_samples_and_runs_the_furnace_checks(rendered):
+    root, _ = rendered
+    splits = ["train", "test"]
+    inputs = {"manifests": [_files(root, s)["manifest"] for s in splits]}
+    inputs["example"] = _files(root, "test")["dir"]
+    outputs = {"csv": str(root / "data.csv"), "furnace": str(root / "furnace.csv")}
+    outputs["figure"] = str(root / "buffers.png")
+    params = {"splits": splits, "device": "cpu", "width": 16, "furnace_spp": 16}
+    params |= {"coarse_samples": 16, "seed": 5, "coarse_height": 8}
+    jobs.ndr_summary(inputs, outputs, params, 1)
+    table = io.read_csv(outputs["csv"])
+    samples = table[table.metric == "samples"].set_index("split")["value"]
+    assert samples.to_dict() == {"train": 2, "test": 2}
+    furnace = io.read_csv(outputs["furnace"])
+    assert len(furnace) > 0 and furnace.measured.notna().all()
+    assert np.asarray(Image.open(outputs["figure"]).convert("RGB")).std() > 1
+
+
+def test_your_objects_are_rendered_under_the_test_and_real_world_maps_and_scored(
+    rendered, tmp_path
+):
+    import trimesh
+
+    _, model = rendered
+    ring = trimesh.creation.annulus(r_min=0.3, r_max=1.0, height=0.6)
+    ring.export(tmp_path / "ring.glb")
+    params = CFG | {"user_objects": {"ring": str(tmp_path / "ring.glb")}, "mask_erosion": 1}
+    params |= {"user_object_defaults": {"base_colour": [0.8, 0.8, 0.8], "specular": 0.04}}
+    params["user_object_defaults"]["roughness"] = 0.5
+    params |= {"user_object_maps": 1, "test_samples": 2, "sunlit_samples": 1}
+    outputs = {"maps": str(tmp_path / "maps.csv"), "table": str(tmp_path / "objects.csv")}
+    outputs["figure"] = str(tmp_path / "objects.png")
+    jobs.ndr_user_objects({"checkpoint": model["checkpoint"]}, outputs, params, 1)
+    per_map = io.read_csv(outputs["maps"])
+    # One test map and one real-world-like map, NDR and the shading input on each.
+    assert per_map.groupby("model").map.nunique().to_dict() == {"ndr": 2, SHADING_INPUT: 2}
+    means = io.read_csv(outputs["table"])
+    dssim = per_map[per_map.metric == "dssim_I_R"]
+    want = dssim.groupby(["model", "split"]).value.mean()  # the split: the map set
+    got = means[means.metric == "dssim_I_R"].set_index(["model", "split"]).value
+    pd.testing.assert_series_equal(got.sort_index(), want.sort_index(), check_names=False)
+    assert np.asarray(Image.open(outputs["figure"]).convert("RGB")).std() > 1
+    with pytest.raises(ValueError, match="ndr.user_objects is empty"):
+        jobs.ndr_user_objects({}, outputs, params | {"user_objects": {}}, 1)

@@ -440,3 +440,26 @@ def test_the_ray_tracing_benchmark_times_the_stage_and_embree(head, tmp_path):
     assert value["stage_fraction_of_embree"] == pytest.approx(fraction)
     assert value["target_met"] == float(fraction >= value["target_fraction"])
     assert value["seconds_per_frame"] > 0
+
+
+def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_the_path(
+    evaluated, trained, head
+):
+    _, files = trained
+    variants = EVALUATE["variants"]
+    inputs = {"seq": head / "seq.npz", "light": head / "sky_sh.csv"}
+    inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
+    inputs |= {"deepprt": [files[v, "diffuse"]["checkpoint"] for v in variants]}
+    inputs |= {"onnx": [files[v, "diffuse"]["onnx"] for v in variants]}
+    inputs |= {"momoprt": head / "momoprt_diffuse.npz"}
+    outputs = {"csv": head / "experiment.csv", "figure": head / "experiment.png"}
+    outputs |= {"deployment": head / "experiment_deployment.csv"}
+    params = {**EVALUATE, "n_bands": CFG["n_bands"], "object": "head_excluded"}
+    jobs.prt_experiment(inputs, outputs, params, 1)
+    table = io.read_csv(outputs["csv"])
+    assert set(table.model) == {"DeepPRT", "DeepPRT shadowing", "MoMoPRT"}
+    frames_ = CFG["frames"]["test"]
+    assert table.groupby(["model", "metric"]).size().eq(frames_).all()  # every test frame
+    deployment = io.read_csv(outputs["deployment"])
+    assert sorted(deployment.network.str.contains("shadowing")) == [False, True]
+    assert _image(outputs["figure"]).std() > 1
