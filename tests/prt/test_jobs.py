@@ -463,3 +463,65 @@ def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_t
     deployment = io.read_csv(outputs["deployment"])
     assert sorted(deployment.network.str.contains("shadowing")) == [False, True]
     assert _image(outputs["figure"]).std() > 1
+
+
+def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
+    evaluated, trained, head, tmp_path
+):
+    _, files = trained
+    stem = head / "variants" / "paper_glossy"  # trained by the evaluation fixture
+    files = {**files, ("paper", "glossy"): {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx"}}
+    files["paper", "glossy"] |= {"int8": f"{stem}_int8.onnx", "loss": f"{stem}_loss.csv"}
+    variants = EVALUATE["variants"]
+    pairs = [(v, m) for v in variants for m in ("diffuse", "glossy")]  # the expand order
+    momoprt = [head / f"momoprt_{m}.npz" for m in ("diffuse", "glossy")]
+    light = head / "sky_sh.csv"
+    unseen = {"csv": tmp_path / "unseen.csv", "figure": tmp_path / "unseen.png"}
+    unseen_inputs = {"gim": head / "gim.npz", "seq": head / "seq.npz", "light": light}
+    unseen_inputs |= {"deepprt": [files[p]["checkpoint"] for p in pairs], "momoprt": momoprt}
+    unseen_inputs |= {"onnx": [files[p]["onnx"] for p in pairs]}
+    params = {**CFG, **EVALUATE, "object": "head", "unseen_strengths": [1.0], "unseen_frames": 1}
+    jobs.prt_unseen(unseen_inputs, unseen, {**params, "reference_directions": 16}, 1)
+    experiment = {"csv": tmp_path / "experiment.csv", "figure": tmp_path / "experiment.png"}
+    experiment["deployment"] = tmp_path / "experiment_deployment.csv"
+    inputs = {"seq": head / "seq.npz", "light": light, "momoprt": momoprt[0]}
+    inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
+    inputs |= {"deepprt": [files[v, "diffuse"]["checkpoint"] for v in variants]}
+    inputs |= {"onnx": [files[v, "diffuse"]["onnx"] for v in variants]}
+    jobs.prt_experiment(inputs, experiment, {**params, "object": "head_excluded"}, 1)
+    summary_inputs = {
+        "metrics": [head / "metrics.csv"],
+        "deployment": [head / "deployment.csv", experiment["deployment"]],
+        "checkpoints": [files[p]["checkpoint"] for p in pairs],
+        "onnx": [files[p]["onnx"] for p in pairs],
+        "losses": [files[p]["loss"] for p in pairs],
+        "shipped": [files["shadowing", m]["onnx"] for m in ("diffuse", "glossy")],
+        "shipped_int8": [files["shadowing", m]["int8"] for m in ("diffuse", "glossy")],
+        "frames": [head / split for split in ("train", "val", "test")],
+        "experiments": [experiment["csv"]],
+        "unseen": unseen["csv"],
+    }
+    names = ("metrics", "deployment", "compression", "targets")
+    outputs = {name: tmp_path / f"summary_{name}.csv" for name in names}
+    outputs |= {"loss": tmp_path / "loss.png", "equal_quality": tmp_path / "equal_quality.png"}
+    params = {"objects": ["head"], "variants": variants, "shipped": "shadowing"}
+    params |= {"resolution": CFG["resolution"], "n_bands": CFG["n_bands"]}
+    params |= {"equal_quality_directions": EVALUATE["equal_quality_directions"]}
+    jobs.prt_model_summary(summary_inputs, outputs, params, 1)
+    pd.testing.assert_frame_equal(io.read_csv(outputs["metrics"]), evaluated["metrics"])
+    deployment = io.read_csv(outputs["deployment"])
+    assert len(deployment) == len(evaluated["deployment"]) + len(variants)  # + the experiment's
+    compression = io.read_csv(outputs["compression"])
+    shipped = compression[compression.model.str.endswith("(shipped)")]
+    assert set(shipped.model) == {
+        f"DeepPRT shadowing{kind} {m} (shipped)"
+        for kind in ("", " int8")
+        for m in ("diffuse", "glossy")
+    }
+    targets = io.read_csv(outputs["targets"])
+    assert (
+        set(targets.subject) >= {"head", "head_excluded"} and targets.met.isin([True, False]).all()
+    )
+    assert targets.check.str.contains("DeepPRT shadowing").all()
+    for png in ("loss", "equal_quality"):
+        assert _image(outputs[png]).std() > 1

@@ -170,7 +170,7 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     )
 
 
-#: Issue 25's studies (``benchmarks/ndr_diffuse_study.py``,
+#: The diffuse and coarse-shading studies (``benchmarks/ndr_diffuse_study.py``,
 #: ``benchmarks/ndr_coarse_shading_runs.py``) and the deployment and coarse shading timings
 #: (``benchmarks/ndr_graph.py``, ``benchmarks/coarse_shading.py``).
 STUDIES = (

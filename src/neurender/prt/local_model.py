@@ -1,4 +1,4 @@
-"""A DeepPRT variant that learns shadowing as a local rule (issue 27).
+"""A DeepPRT variant that learns shadowing as a local rule.
 
 The paper's network (:mod:`neurender.prt.model`) maps the whole P and N images to the
 whole transfer, so it can memorise the training animation's global pose. This variant:

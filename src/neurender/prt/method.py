@@ -203,13 +203,13 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     )
 
 
-#: Issue 27's study, ``benchmarks/prt_generalisation.py``: the shipped model against the
+#: The generalisation study, ``benchmarks/prt_generalisation.py``: the shipped model against the
 #: shadowing variant and the two baselines at 3, 8 and 14 epochs.
 GENERALISATION = "benchmarks/results/prt_generalisation.csv"
-#: Issue 27's learning curves, ``benchmarks/prt_generalisation.py --study
+#: The learning curves, ``benchmarks/prt_generalisation.py --study
 #: config/studies/deepprt.yaml``: budgets in epochs and in distinct training shapes.
 LEARNING_CURVE = "benchmarks/results/prt_learning_curve.csv"
-#: Issue 27's gated correction, ``benchmarks/prt_correction_runs.py``: the shadowing
+#: The gated correction, ``benchmarks/prt_correction_runs.py``: the shadowing
 #: variant with and without its gate, retrained on the same data.
 CORRECTION = "benchmarks/results/prt_correction_runs.csv"
 #: The shadowing variant's own batch size, the same script: batch 5 (the paper form's)

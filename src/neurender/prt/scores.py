@@ -10,7 +10,7 @@ frames), and SSIM's luminance term is meaningless for a negative mean (with only
 prediction clamped, an independent estimate as good as the reference scored 0.90 there).
 Coefficient errors: L1 of the transfer, and ``accuracy = 1 - sum |pred - gt| / sum |gt|``
 (our reading of the paper's undefined "accuracy": one minus the relative L1 error).
-Radiance error (issue 27): ``rel_l1_radiance = sum |R_pred - R_gt| / sum |R_gt|`` of the
+Radiance error: ``rel_l1_radiance = sum |R_pred - R_gt| / sum |R_gt|`` of the
 rendered radiance images inside the silhouette (:func:`relative_l1`), unnormalised.
 """
 

@@ -1,5 +1,5 @@
 """Unseen deformations of an object's mean shape, and the baselines that need no learning
-(issue 27: does a network learn how geometry shadows itself, or the training animation?).
+(does a network learn how geometry shadows itself, or the training animation?).
 
 Every family deforms the mean training shape (a geometry image ``(n, n, 3)``, world
 units) in a way no training split contains, with a ``strength`` in [0, 1] from mild to

@@ -1,4 +1,4 @@
-"""The unseen-deformation benchmark (issue 27): frames of the families of
+"""The unseen-deformation benchmark: frames of the families of
 :mod:`neurender.prt.unseen`, their clean ground truth, every model's and baseline's
 predictions scored, and its targets.
 
@@ -179,7 +179,7 @@ def case_rows(name: str, case: Case, values: dict[str, dict[str, np.ndarray]]) -
 
 
 def targets(table: pd.DataFrame, shipped: str, paper: str | None = None) -> list[Target]:
-    """Issue 27's unseen-deformation targets per object and material, on the relative L1
+    """The unseen-deformation targets per object and material, on the relative L1
     of radiance of a table of :func:`case_rows`:
 
     * the ``shipped`` model below both baselines on every family, averaged over its
