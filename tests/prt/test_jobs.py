@@ -1,5 +1,3 @@
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -78,17 +76,6 @@ def test_a_user_probe_without_positive_radiance_stops_its_job_naming_file_and_ke
     assert f"light probe {source} (prt.user_probes.night) has no positive radiance" in message
     assert "expected a map with positive radiance" in message
     assert not outputs["exr"].exists()
-
-
-def test_data_jobs_load_no_torch():
-    """The data jobs' module (imported by about 50 small jobs a run) keeps torch, ONNX and
-    matplotlib out, so each such job starts in a fraction of a second."""
-    code = (
-        "import sys, neurender.prt.data_jobs; "
-        "print([m for m in ('torch', 'onnx', 'onnxruntime', 'matplotlib') if m in sys.modules])"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
 
 
 def test_sequence_splits_and_extrapolation(head):
