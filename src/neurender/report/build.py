@@ -285,9 +285,14 @@ def _viewer(path: Path, index: int) -> dict:
         "id": f"viewer-{index}",
         "kind": viewer["kind"],
         "title": viewer["title"],
-        # The JSON sits in a <script> element, raw text: no "<" may open a tag inside it.
-        "json": json.dumps(viewer["data"], separators=(",", ":")).replace("<", "\\u003c"),
+        "json": script_json(viewer["data"]),
     }
+
+
+def script_json(data: dict) -> str:
+    """``data`` as compact JSON to embed in a ``<script>`` element, whose raw text no
+    ``<`` may open a tag inside."""
+    return json.dumps(data, separators=(",", ":")).replace("<", "\\u003c")
 
 
 def table_name(table: Path, key: str) -> str:

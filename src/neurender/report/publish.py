@@ -21,13 +21,15 @@ import io as _io
 import json
 import re
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
 from neurender import io
+from neurender.report.build import script_json
+from neurender.viewer_data import b64_bytes
 
 #: Resampling factors of the figures tried in turn when the palette alone is too large.
 FIGURE_SCALES = (1.0, 0.75, 0.5)
@@ -89,20 +91,16 @@ def _is_png(text: str) -> bool:
     return base64.b64decode(text[:12]).startswith(_PNG_SIGNATURE)
 
 
-def _reduce_b64(text: str, reduce: Callable[[bytes], bytes]) -> str:
-    return base64.b64encode(reduce(base64.b64decode(text))).decode("ascii")
-
-
 def _reduce_viewer_frames(json_text: str, colours: int) -> str:
     """A viewer's JSON with every PNG of its ``frames`` and ``overlay`` reduced."""
     data = json.loads(json_text)
     for key in ("frames", "overlay"):
         for name, images in data.get(key, {}).items():
             data[key][name] = [
-                _reduce_b64(b, lambda d: palette_png(d, colours)) if _is_png(b) else b
+                b64_bytes(palette_png(base64.b64decode(b), colours)) if _is_png(b) else b
                 for b in images
             ]
-    return json.dumps(data, separators=(",", ":")).replace("<", "\\u003c")
+    return script_json(data)
 
 
 def _figures(html: str, colours: int, scale: float) -> str:
@@ -111,7 +109,7 @@ def _figures(html: str, colours: int, scale: float) -> str:
     def one(match: re.Match) -> str:
         data = base64.b64decode(match.group(2))
         width = Image.open(_io.BytesIO(data)).width
-        reduced = base64.b64encode(palette_png(data, colours, scale)).decode("ascii")
+        reduced = b64_bytes(palette_png(data, colours, scale))
         shown = f'width="{width}" ' if scale != 1.0 else ""
         return f'{match.group(1)}{shown}src="data:image/png;base64,{reduced}"'
 
