@@ -153,17 +153,24 @@ def trained(head):
         ("shadowing", "diffuse"),
         ("shadowing", "glossy"),
     ]:
-        stem = out / f"{variant}_{material}"
-        outputs = {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx", "loss": f"{stem}_loss.csv"}
-        outputs["int8"] = f"{stem}_int8.onnx"
-        outputs["tensorboard"] = str(head / "tensorboard" / f"{variant}_{material}" / "run.json")
         params = {**CFG, **TRAIN, "material": material, "variant": variant}
         extra = {"light": head / "sky_sh.csv"} if material == "glossy" else {}
         if variant == "paper":
             params["residual_targets"] = True
-        jobs.prt_train({**inputs, **extra}, outputs, params, 1)
-        files[variant, material] = outputs
+        files[variant, material] = _train_and_deploy(
+            {**inputs, **extra}, out / f"{variant}_{material}", params, head
+        )
     return inputs, files
+
+
+def _train_and_deploy(inputs: dict, stem: Path, params: dict, head: Path) -> dict:
+    """A network trained and deployed by the jobs as the rules call them: its files."""
+    board = head / "tensorboard" / stem.name / "run.json"
+    trained = {"checkpoint": f"{stem}.pt", "loss": f"{stem}_loss.csv", "tensorboard": str(board)}
+    jobs.prt_train(inputs, trained, params, 1)
+    graphs = {"onnx": f"{stem}.onnx", "int8": f"{stem}_int8.onnx"}
+    jobs.prt_deploy({**inputs, "checkpoint": trained["checkpoint"]}, graphs, params, 1)
+    return trained | graphs
 
 
 @pytest.mark.parametrize(
@@ -191,6 +198,37 @@ def test_each_variant_trains_into_a_checkpoint_both_engines_serve(
     assert int8.predict(val).shape == torch_pred.shape  # the same contract, ONNX Runtime alone
 
 
+def test_a_split_loads_its_first_frames_in_frame_order(trained):
+    inputs, _ = trained
+    seq = io.load_npz(inputs["seq"])
+    whole = frames.split_frames(inputs, seq, "train", 4)
+    assert len(whole.positions) > 2
+    first = frames.split_frames(inputs, seq, "train", 4, first=2)
+    for name in ("positions", "normals", "diffuse", "glossy", "params"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(whole, name)[:2])
+    beyond = frames.split_frames(inputs, seq, "train", 4, first=len(whole.positions) + 5)
+    np.testing.assert_array_equal(beyond.glossy, whole.glossy)
+
+
+def test_deploy_writes_the_graphs_exported_from_the_whole_splits(trained, head, tmp_path):
+    """The deploy job reads only the frames its exports use: its graphs predict as the
+    graphs exported from the whole val and train splits do."""
+    from neurender.prt.model import export_deepprt, export_int8
+
+    inputs, files = trained
+    source = files["shadowing", "glossy"]
+    seq = io.load_npz(inputs["seq"])
+    val, train_split = (frames.split_frames(inputs, seq, s, 4) for s in ("val", "train"))
+    export_deepprt(source["checkpoint"], val, tmp_path / "whole.onnx")
+    export_int8(tmp_path / "whole.onnx", train_split, tmp_path / "whole_int8.onnx")
+    for deployed, whole in ((source["onnx"], "whole.onnx"), (source["int8"], "whole_int8.onnx")):
+        ours, theirs = (
+            DeepPRT(source["checkpoint"], graph, device="cpu", pytorch=False)
+            for graph in (deployed, tmp_path / whole)
+        )
+        np.testing.assert_array_equal(ours.predict(val), theirs.predict(val))
+
+
 @pytest.mark.parametrize(
     ("variant", "batch_size", "lr"),
     [("paper", TRAIN["batch_size"], TRAIN["lr"])]
@@ -207,7 +245,7 @@ def test_each_variant_trains_with_its_own_batch_size_and_learning_rate(
 def test_an_unknown_variant_is_refused_naming_it(trained, head):
     inputs, _ = trained
     params = {**CFG, **TRAIN, "material": "diffuse", "variant": "tiny"}
-    outputs = {"checkpoint": head / "x.pt", "onnx": head / "x.onnx", "loss": head / "x.csv"}
+    outputs = {"checkpoint": head / "x.pt", "loss": head / "x.csv"}
     with pytest.raises(
         ValueError, match=r"variant 'tiny'; expected one of \['paper', 'shadowing'\]"
     ):
@@ -246,11 +284,8 @@ def evaluated(trained, head):
     reference's directions, and the evaluation and equal-quality jobs run as the rules run
     them (the first on one thread, the second on two)."""
     inputs, files = trained
-    stem = head / "variants" / "paper_glossy"
-    paper_glossy = {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx", "loss": f"{stem}_loss.csv"}
-    paper_glossy["int8"] = f"{stem}_int8.onnx"
     params = {**CFG, **TRAIN, "material": "glossy", "variant": "paper", "residual_targets": True}
-    jobs.prt_train(inputs, paper_glossy, params, 1)
+    paper_glossy = _train_and_deploy(inputs, head / "variants" / "paper_glossy", params, head)
     files = {**files, ("paper", "glossy"): paper_glossy}
     data_jobs.prt_transfer(
         {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},

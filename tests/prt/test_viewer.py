@@ -100,9 +100,9 @@ def trained(tmp_path_factory):
     model = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
     model |= {"lr_schedule": "constant", "residual_targets": True, "device": "cpu"}
     model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3], "variant": "paper"}
-    nets = {"checkpoint": d / "net.pt", "onnx": d / "net.onnx", "loss": d / "loss.csv"}
-    nets["int8"] = d / "net_int8.onnx"
-    jobs.prt_train(files, nets, {**CFG, **model}, 1)
+    jobs.prt_train(files, {"checkpoint": d / "net.pt", "loss": d / "loss.csv"}, {**CFG, **model}, 1)
+    graphs = {"onnx": d / "net.onnx", "int8": d / "net_int8.onnx"}
+    jobs.prt_deploy({**files, "checkpoint": d / "net.pt"}, graphs, {**CFG, **model}, 1)
     data_jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
     return d, files
 

@@ -92,6 +92,7 @@ READERS: dict[str, set[str]] = {
     "prt.source_vertices": {"prt_geometry_image"},
     "prt.n_bands": {
         "prt_benchmark",
+        "prt_deploy",
         "prt_equal_quality",
         "prt_evaluate",
         "prt_experiment",
@@ -607,3 +608,12 @@ def test_an_edit_reruns_exactly_the_rules_that_read_the_key(matrix):
         if found != READERS[key] | {PROVENANCE}
     }
     assert not wrong, wrong
+
+
+def test_no_training_rule_writes_a_shipped_graph():
+    """A network becomes the graph a renderer ships (ONNX) in a deploy rule, never in the
+    rule that trains it, so that a change to the export reruns the deploy job and what
+    reads the graphs, not the training."""
+    made_by = {f: rule for f, (rule, _) in job_params({}).items() if f.endswith(".onnx")}
+    assert "prt_deploy" in made_by.values()
+    assert not {f: rule for f, rule in made_by.items() if rule.endswith("_train")}

@@ -246,8 +246,6 @@ rule prt_train:
         unpack(prt_variant_training_files),
     output:
         checkpoint="results/prt/{object}/variants/{variant}_{material}.pt",
-        onnx="results/prt/{object}/variants/{variant}_{material}.onnx",
-        int8="results/prt/{object}/variants/{variant}_{material}_int8.onnx",
         loss="results/prt/{object}/variants/{variant}_{material}_loss.csv",
         tensorboard="results/tensorboard/prt/{object}_{variant}_{material}/run.json",
     log:
@@ -264,6 +262,29 @@ rule prt_train:
         cfg=prt_train_params,
     script:
         "../scripts/prt_train.py"
+
+
+# One trained network as the graphs a renderer ships (ONNX, int8 ONNX): its own job, so that
+# a change to the export reruns it and what reads the graphs, not the training.
+rule prt_deploy:
+    input:
+        unpack(prt_deploy_files),
+    output:
+        onnx="results/prt/{object}/variants/{variant}_{material}.onnx",
+        int8="results/prt/{object}/variants/{variant}_{material}_int8.onnx",
+    log:
+        "results/logs/prt_deploy/{object}_{variant}_{material}.log",
+    benchmark:
+        "results/benchmarks/prt_deploy/{object}_{variant}_{material}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_deploy"),
+    params:
+        cfg=prt_deploy_params,
+    script:
+        "../scripts/prt_deploy.py"
 
 
 # The shipped network (prt_model.shipped): what relighting, the viewer and a renderer use.

@@ -27,6 +27,12 @@ MATERIALS = ("diffuse", "glossy")
 VARIANTS = {"paper": "DeepPRT", "shadowing": "DeepPRT shadowing"}
 
 
+#: Training frames whose activation ranges calibrate a network's int8 graph, and val
+#: frames on which an exported graph is checked against PyTorch (``prt_deploy``).
+CALIBRATION_FRAMES = 32
+CHECK_FRAMES = 2
+
+
 def int8_name(model: str) -> str:
     """The tables' name of a variant's int8 graph (its convolutions in int8, scored and
     timed as a network of its own) from the variant's name ``model``."""

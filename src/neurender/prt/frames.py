@@ -95,16 +95,20 @@ class Split:
 
 
 def load_split(
-    frames_dir: str | Path, manifest: str | Path, params: np.ndarray, n_bands: int
+    frames_dir: str | Path,
+    manifest: str | Path,
+    params: np.ndarray,
+    n_bands: int,
+    first: int | None = None,
 ) -> Split:
-    """Read every frame EXR listed in a split's manifest."""
-    files = io.read_csv(manifest, ["frame", "file"]).sort_values("frame")["file"]
-    frames = [read_frame(Path(frames_dir) / f, n_bands) for f in files]
-    if len(frames) != len(params):
-        raise ValueError(
-            f"{manifest} lists {len(frames)} frames but the sequence has {len(params)}"
-        )
-    return Split(*(np.stack([fr[k] for fr in frames]) for k in ("P", "N", "T", "G")), params=params)
+    """Read the frame EXRs listed in a split's manifest, in frame order: every one, or the
+    ``first`` ones (all if the split has fewer)."""
+    files = io.read_csv(manifest, ["frame", "file"]).sort_values("frame")["file"].tolist()
+    if len(files) != len(params):
+        raise ValueError(f"{manifest} lists {len(files)} frames but the sequence has {len(params)}")
+    frames = [read_frame(Path(frames_dir) / f, n_bands) for f in files[:first]]
+    stacked = (np.stack([fr[k] for fr in frames]) for k in ("P", "N", "T", "G"))
+    return Split(*stacked, params=params[:first])
 
 
 def sh_light_table(coeffs: np.ndarray) -> pd.DataFrame:
@@ -138,9 +142,11 @@ def ray_offset(positions: np.ndarray, relative: float) -> float:
     return relative * float(np.linalg.norm(p.max(0) - p.min(0)))
 
 
-def split_frames(inputs: dict, seq: dict, split: str, n_bands: int) -> Split:
-    """A split's frames from a job's inputs (``{split}_dir``, ``{split}_manifest``) and
-    its sequence's deformation parameters."""
+def split_frames(
+    inputs: dict, seq: dict, split: str, n_bands: int, first: int | None = None
+) -> Split:
+    """A split's frames (its ``first`` ones, all if ``None``) from a job's inputs
+    (``{split}_dir``, ``{split}_manifest``) and its sequence's deformation parameters."""
     return load_split(
-        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands
+        inputs[f"{split}_dir"], inputs[f"{split}_manifest"], seq[f"{split}_params"], n_bands, first
     )

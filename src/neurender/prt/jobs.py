@@ -26,7 +26,15 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender import io
-from neurender.prt import MATERIALS, SPLITS, VARIANTS, frames, int8_name
+from neurender.prt import (
+    CALIBRATION_FRAMES,
+    CHECK_FRAMES,
+    MATERIALS,
+    SPLITS,
+    VARIANTS,
+    frames,
+    int8_name,
+)
 from neurender.prt.frames import split_frames
 from neurender.prt.momoprt import MoMoPRT
 from neurender.tables import tidy_rows
@@ -84,15 +92,13 @@ def prt_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None
 
 def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """One network of one variant (``params["variant"]``, :data:`neurender.prt.VARIANTS`)
-    trained on an object's train split (val for model selection), and the selected
-    network exported as its ONNX file (and in int8, ``int8``: its convolutions calibrated
-    on the train split, :func:`~neurender.prt.model.export_int8`): ``paper``, the paper's U-Net
+    trained on an object's train split (val for model selection; :func:`prt_deploy`
+    exports it): ``paper``, the paper's U-Net
     (:func:`~neurender.prt.training.train_deepprt`, ``batch_size`` and ``lr``);
     ``shadowing``, the unshadowed transfer plus a local network
     (:func:`~neurender.prt.training.train_local`, ``shadowing_batch_size`` and
     ``shadowing_lr``; glossy reads the SH ``light``)."""
     from neurender.prt.local_model import LocalConfig
-    from neurender.prt.model import export_deepprt, export_int8
     from neurender.prt.training import shadowing_training, train_deepprt, train_local
 
     seq = io.load_npz(inputs["seq"])
@@ -128,7 +134,21 @@ def prt_train(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         raise ValueError(
             f"prt_train: variant {params['variant']!r}; expected one of {list(VARIANTS)}"
         )
-    export_deepprt(outputs["checkpoint"], val_split, outputs["onnx"])
+
+
+def prt_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """One trained network (``checkpoint``) as the graphs a renderer ships: its ONNX file
+    (``onnx``, checked against PyTorch on the first val frames,
+    :func:`~neurender.prt.model.export_deepprt`) and its int8 form (``int8``, its
+    convolutions calibrated on the first train frames,
+    :func:`~neurender.prt.model.export_int8`). Its own rule, so that a change to the export
+    reruns this and what reads the graphs, never the training."""
+    from neurender.prt.model import export_deepprt, export_int8
+
+    seq, n_bands = io.load_npz(inputs["seq"]), params["n_bands"]
+    val_split = split_frames(inputs, seq, "val", n_bands, first=CHECK_FRAMES)
+    export_deepprt(inputs["checkpoint"], val_split, outputs["onnx"])
+    train_split = split_frames(inputs, seq, "train", n_bands, first=CALIBRATION_FRAMES)
     export_int8(outputs["onnx"], train_split, outputs["int8"])
 
 

@@ -13,6 +13,8 @@ from neurender import checks
 from neurender.lights import BUILTIN_PROBES
 from neurender.method import Method, ReportInputs, Rule, Study, Units, unet_work
 from neurender.prt import (
+    CALIBRATION_FRAMES,
+    CHECK_FRAMES,
     DISK_EXPECTED,
     EXPERIMENTS,
     MESH_SUFFIXES,
@@ -121,6 +123,16 @@ def _train(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     k = prt["n_bands"] ** 2 * (GLOSSY_CHANNELS if wildcards.get("material") == "glossy" else 1)
     pixels = (frames["train"] + frames["val"]) * n * n
     return pm["epochs"] * pixels * unet_work(pm["widths"]) / 1e6, pixels * (6 + k) / 1e6
+
+
+def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The network run on the int8 graph's calibration frames and the export's check
+    frames (pixels times the U-Net's multiply-adds per pixel), and those frames."""
+    prt, pm = cfg["prt"], cfg["prt_model"]
+    n, frames = prt["resolution"], prt["frames"]
+    count = min(CALIBRATION_FRAMES, frames["train"]) + min(CHECK_FRAMES, frames["val"])
+    k = prt["n_bands"] ** 2 * (GLOSSY_CHANNELS if wildcards.get("material") == "glossy" else 1)
+    return count * n * n * unet_work(pm["widths"]) / 1e6, count * n * n * (6 + k) / 1e6
 
 
 def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -404,6 +416,7 @@ METHOD = Method(
         "prt_probes_figure": Rule(DATA),
         "prt_mesh_figure": Rule(DATA, _mesh_figure),
         "prt_train": Rule(MODELS, _train, gpu=True),
+        "prt_deploy": Rule(MODELS, _deploy),
         "prt_ship": Rule(MODELS),
         "prt_momoprt": Rule(MODELS, _momoprt),
         "prt_evaluate": Rule(MODELS, _evaluate),

@@ -26,13 +26,11 @@ from neurender.nn.inference import (
     quantize_convolutions,
 )
 from neurender.nn.unet import ResUNet, count_parameters
+from neurender.prt import CALIBRATION_FRAMES, CHECK_FRAMES
 from neurender.prt.frames import Split
 from neurender.prt.local_model import load_local
 
 log = logging.getLogger(__name__)
-
-#: Training frames whose activation ranges calibrate an int8 graph (:func:`export_int8`).
-CALIBRATION_FRAMES = 32
 
 
 def raw_inputs(split: Split) -> np.ndarray:
@@ -191,18 +189,19 @@ class DeepPRT:
 
 def export_deepprt(checkpoint: str | Path, example: Split, out: str | Path) -> None:
     """Write the network file a renderer ships: ``checkpoint``'s graph of either variant
-    (:func:`load_transfer_module`) as ONNX, checked against PyTorch on the first two frames
-    of ``example`` (the first twice if it has one) relative to the output's magnitude
-    (transfer is in physical units)."""
+    (:func:`load_transfer_module`) as ONNX, checked against PyTorch on the first
+    :data:`~neurender.prt.CHECK_FRAMES` frames of ``example`` (repeated if it has fewer)
+    relative to the output's magnitude (transfer is in physical units)."""
     net = DeepPRT(checkpoint, device="cpu")
     x = raw_inputs(example)
-    export_onnx(net.module, torch.from_numpy(x[np.arange(2) % len(x)]), out, rtol=1e-4)
+    frames = np.arange(CHECK_FRAMES) % len(x)
+    export_onnx(net.module, torch.from_numpy(x[frames]), out, rtol=1e-4)
 
 
 def export_int8(source: str | Path, train_split: Split, out: str | Path) -> None:
     """Write the int8 form of a shipped float32 graph ``source`` (:func:`export_deepprt`):
     its convolutions int8 (:func:`neurender.nn.inference.quantize_convolutions`),
-    calibrated one frame at a time on the first :data:`CALIBRATION_FRAMES` frames of
+    calibrated one frame at a time on the first :data:`~neurender.prt.CALIBRATION_FRAMES` frames of
     ``train_split``; same inputs and outputs. An approximation: the evaluation scores it
     as a network of its own."""
     x = raw_inputs(train_split)[:CALIBRATION_FRAMES]

@@ -111,6 +111,15 @@ def prt_train_params(wildcards):
     )
 
 
+def prt_deploy_params(wildcards):
+    return prt_params(
+        ("n_bands",),
+        object=wildcards.object,
+        variant=wildcards.variant,
+        material=wildcards.material,
+    )
+
+
 def prt_ship_params(wildcards):
     return {"shipped": PRT_SHIPPED}
 
@@ -260,6 +269,13 @@ def prt_variant_training_files(wildcards):
     if wildcards.variant == "shadowing" and wildcards.material == "glossy":
         inputs["light"] = PRT_LIGHT
     return inputs
+
+
+def prt_deploy_files(wildcards):
+    """A trained network and the first frames of its training data (val: the export's
+    check; train: the int8 graph's calibration)."""
+    base = f"results/prt/{wildcards.object}/variants/{wildcards.variant}_{wildcards.material}"
+    return {**prt_training_files(wildcards), "checkpoint": f"{base}.pt"}
 
 
 def prt_evaluation_files(wildcards):
