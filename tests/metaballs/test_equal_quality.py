@@ -4,6 +4,7 @@ import pandas as pd
 import pytest
 import torch
 
+from neurender import equal_quality as shared
 from neurender.metaballs import equal_quality as eq
 from neurender.metaballs import raymarch, scenes
 
@@ -53,7 +54,7 @@ def test_quality_falls_along_each_knob_so_the_cheapest_can_be_picked():
         # so each coarser setting reaches the quality of the next finer one's, not conversely
         for finer, coarser in zip(scores.index[:-1], scores.index[1:], strict=True):
             target = scores.loc[coarser, list(eq.QUALITY)].to_dict()
-            assert eq.reaches(scores.loc[[finer]], target).all()
+            assert shared.reaches(scores.loc[[finer]], target, eq.QUALITY).all()
 
 
 def _synthetic():
@@ -68,17 +69,14 @@ def _synthetic():
     )
 
 
-def test_the_pick_is_the_fastest_setting_reaching_both_targets(tmp_path):
+def test_the_pick_is_the_shared_rule_on_both_metrics(tmp_path):
     scores = _synthetic()
     target = {"iou_depth": 0.93, "normal_error_mean_deg": 7.8}  # "middle" meets it exactly
-    assert eq.reaches(scores, target).tolist() == [True, False, True, True, True]
-    assert eq.cheapest(scores, target)["label"] == "middle"
-    assert eq.equal_quality_speedup(scores, target, 4.0) == pytest.approx(5.0)
+    assert eq.cheapest(scores, target) == shared.Pick("middle", 20.0, shared.WITHIN)
     stricter = {"iou_depth": 0.94, "normal_error_mean_deg": 7.8}
-    assert eq.cheapest(scores, stricter)["label"] == "tie"
+    assert eq.cheapest(scores, stricter) == shared.Pick("tie", 30.0, shared.WITHIN)
     unreachable = {"iou_depth": 1.0, "normal_error_mean_deg": 0.1}
-    assert eq.cheapest(scores, unreachable) is None
-    assert math.isnan(eq.equal_quality_speedup(scores, unreachable, 4.0))
+    assert eq.cheapest(scores, unreachable) == shared.Pick(eq.REFERENCE.label, 100.0, shared.LOWER)
     path = tmp_path / "quality.png"
     eq.quality_figure(scores, {"ours": (target, 4.0)}, str(path))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -103,8 +101,11 @@ def test_the_table_names_each_networks_pick_and_speedups():
     value = rows.set_index(["model", "setting", "metric"])["value"]
     assert value["ours", "middle", "equal_quality_speedup"] == pytest.approx(5.0)
     assert value["ours", "middle", "speedup_vs_reference_marcher"] == pytest.approx(25.0)
-    assert value["ours", "middle", "equal_quality_marcher_ms"] == 20.0
-    assert math.isnan(value["perfect", "none", "equal_quality_speedup"])
+    assert value["ours", "middle", "equal_quality_reference_ms"] == 20.0
+    # Better than every marcher: a lower bound against the slowest, the reference.
+    reference = eq.REFERENCE.label
+    assert value["perfect", reference, "equal_quality_speedup"] == pytest.approx(50.0)
+    assert set(rows[rows.model == "perfect"].bound) == {shared.LOWER}
     assert value[eq.RAY_MARCHER, "tie", "ms_per_frame"] == 30.0
     assert len(rows[rows.model == eq.RAY_MARCHER]) == 5 * 3
 
@@ -160,10 +161,9 @@ def test_the_job_scores_every_network_and_setting_on_the_first_examples(tmp_path
         for metric in eq.QUALITY:
             assert rows[metric] == pytest.approx(expected[metric])
         pick = table[table.model == variant].setting.iloc[0]
-        if pick != "none":
-            ms = marchers[(marchers.setting == pick) & (marchers.metric == "ms_per_frame")]
-            ratio = ms.value.iloc[0] / rows["ms_per_frame"]
-            assert rows["equal_quality_speedup"] == pytest.approx(ratio)
+        ms = marchers[(marchers.setting == pick) & (marchers.metric == "ms_per_frame")]
+        ratio = ms.value.iloc[0] / rows["ms_per_frame"]
+        assert rows["equal_quality_speedup"] == pytest.approx(ratio)
     refined = table[table.model == REFINED_BASELINE].set_index("metric")["value"]
     expected = first[first.model == REFINED_BASELINE].set_index("metric")["value"]
     assert refined["iou_depth"] == pytest.approx(expected["iou_depth"])

@@ -3,12 +3,25 @@ import pandas as pd
 from PIL import Image
 
 from neurender import io
+from neurender.equal_quality import LOWER, WITHIN
 from neurender.metaballs import jobs, summary
 from neurender.tables import TARGET_COLUMNS
 
 
 def _metrics(rows):
     return pd.DataFrame(rows, columns=["model", "metric", "value"])
+
+
+#: The columns of an equal-quality table (:func:`neurender.equal_quality.table`).
+EQUAL_COLUMNS = ["method", "dataset", "model", "split", "setting", "bound", "metric", "value"]
+
+
+def _equal(rows):
+    """Equal-quality rows ``(model, setting, bound, metric, value)`` on the test set."""
+    return pd.DataFrame(
+        [("metaballs", "test", m, "equal quality", *rest) for m, *rest in rows],
+        columns=EQUAL_COLUMNS,
+    )
 
 
 def test_targets_state_each_check_as_met_or_missed(tmp_path):
@@ -27,13 +40,13 @@ def test_targets_state_each_check_as_met_or_missed(tmp_path):
         ]
     )
     timing = _metrics([("good", "speedup_at_145_balls", 50.0), ("good", "ms_per_frame", 1.0)])
-    equal = pd.DataFrame(
+    half = "step 1, 4 bisections, 0.5 width"
+    equal = _equal(
         [
-            ("good", "step 1, 4 bisections, 0.5 width", "equal_quality_speedup", 6.0),
-            ("good", "step 1, 4 bisections, 0.5 width", "ms_per_frame", 1.0),
-            ("bad", "none", "equal_quality_speedup", float("nan")),
-        ],
-        columns=["model", "setting", "metric", "value"],
+            ("good", half, WITHIN, "equal_quality_speedup", 6.0),
+            ("good", half, WITHIN, "ms_per_frame", 1.0),
+            ("bad", "step 1, 4 bisections, 1 width", LOWER, "equal_quality_speedup", 2.0),
+        ]
     )
     table = summary.targets(metrics, timing, equal, width=128)
     # The job reads the three files and writes the same table.
@@ -43,24 +56,25 @@ def test_targets_state_each_check_as_met_or_missed(tmp_path):
     jobs.metaballs_targets(files, {"targets": tmp_path / "targets.csv"}, {"width": 128}, 1)
     pd.testing.assert_frame_equal(io.read_csv(tmp_path / "targets.csv"), table)
     assert list(table.columns) == list(TARGET_COLUMNS)
-    assert set(table.subject) == {"good", "bad"}  # baselines are not checked
+    # Baselines are not checked; the equal-quality targets' subject is the test set.
+    assert set(table.subject) == {"good", "bad", "test"}
     assert not table.check.str.contains("epochs").any()
     assert table[table.subject == "good"].met.all()
     assert not table[table.subject == "bad"].met.any()
     speed_row = table[table.check.str.contains("faster than ray marching")]
     assert speed_row.measured.tolist() == [50.0]
-    equal_rows = table[table.check.str.contains("cheapest ray marcher")].set_index("subject")
+    equal_rows = table[table.check.str.contains("cheapest ray marcher")]
+    equal_rows = equal_rows.set_index(equal_rows.check.str.split().str[0])
     assert equal_rows.loc["good", "measured"] == 6.0 and equal_rows.loc["good", "met"]
-    assert "step 1, 4 bisections, 0.5 width" in equal_rows.loc["good", "check"]
-    assert (
-        not equal_rows.loc["bad", "met"] and "none of the sweep" in equal_rows.loc["bad", "check"]
-    )
+    assert f"against {half}, within the sweep" in equal_rows.loc["good", "check"]
+    # A lower bound of 2x: the true speed-up is at least 2x, which does not reach 5x.
+    assert not equal_rows.loc["bad", "met"] and "lower bound" in equal_rows.loc["bad", "check"]
 
 
 def test_paper_scale_targets_are_stricter():
     metrics = _metrics([("net", "iou_depth", 0.92), ("net", "normal_error_mean_deg", 10.0)])
     timing = _metrics([])
-    equal = pd.DataFrame(columns=["model", "setting", "metric", "value"])
+    equal = pd.DataFrame(columns=EQUAL_COLUMNS)
     default = summary.targets(metrics, timing, equal, width=128)
     paper = summary.targets(metrics, timing, equal, width=summary.PAPER_SCALE_WIDTH)
     checks = ["silhouette IoU", "mean normal error"]
@@ -100,15 +114,17 @@ def test_every_network_is_checked_against_the_refined_impostors_and_they_are_not
             ("refined spheres", "normal_error_mean_deg", 2.5),
         ]
     )
-    equal = pd.DataFrame(
+    full = "step 1, 4 bisections, 1 width"
+    equal = _equal(
         [
-            ("net", "step 1, 4 bisections, 1 width", "equal_quality_speedup", 2.0),
-            ("refined spheres", "step 1, 4 bisections, 1 width", "equal_quality_speedup", 3.0),
-        ],
-        columns=["model", "setting", "metric", "value"],
+            ("net", full, WITHIN, "equal_quality_speedup", 2.0),
+            ("refined spheres", full, WITHIN, "equal_quality_speedup", 3.0),
+        ]
     )
     table = summary.targets(metrics, _metrics([]), equal, width=128)
-    assert set(table.subject) == {"net"}  # the baseline is compared with, never checked
+    # The baseline is compared with, never checked.
+    assert set(table.subject) == {"net", "test"}
+    assert not table.check.str.startswith("refined spheres").any()
     against = table[table.check.str.contains("refined spheres")].set_index("check")
     iou = "better than refined spheres (no learning) on iou_depth (0.96)"
     angle = "better than refined spheres (no learning) on normal_error_mean_deg (2.5)"
@@ -127,7 +143,7 @@ def test_the_count_of_empty_frames_is_no_score_to_beat():
             ("isolated spheres", "empty_frames", 1.0),
         ]
     )
-    equal = pd.DataFrame(columns=["model", "setting", "metric", "value"])
+    equal = pd.DataFrame(columns=EQUAL_COLUMNS)
     table = summary.targets(metrics, _metrics([]), equal, width=128)
     assert not table.check.str.contains("empty_frames").any()
     assert table.met.all()

@@ -306,11 +306,11 @@ def evaluated(trained, head):
     test = {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
     light = {"light": head / "sky_sh.csv"}
     params = {**CFG, **EVALUATE}
-    scores = {"scores": head / "scores.csv", "frames": head / "metrics_frames.csv"}
+    scores = {"metrics": head / "metrics.csv", "frames": head / "metrics_frames.csv"}
     evaluate_inputs = {**inputs, **test, **networks, **light, "momoprt": momoprt}
     jobs.prt_evaluate(evaluate_inputs, {**scores, "figure": head / "prediction.png"}, params, 1)
-    timed = {"metrics": head / "metrics.csv", "deployment": head / "deployment.csv"}
-    equal_inputs = {"seq": inputs["seq"], **test, **networks, **light, **scores}
+    timed = {"equal_quality": head / "equal_quality.csv", "deployment": head / "deployment.csv"}
+    equal_inputs = {"seq": inputs["seq"], **test, **networks, **light, "frames": scores["frames"]}
     jobs.prt_equal_quality(equal_inputs, timed, params, 2)
     return {name: io.read_csv(path) for name, path in {**scores, **timed}.items()}
 
@@ -333,7 +333,7 @@ def test_evaluation_scores_every_network_momoprt_and_the_ground_truths_on_val_an
     assert set(ssim[ssim.model.isin(estimates)].split) == {"test"}
     assert ssim.value.between(-1, 1).all()
     # The means are the per-frame scores' means.
-    scores = evaluated["scores"]
+    scores = evaluated["metrics"]
     mean = scores[(scores.model == "MoMoPRT") & (scores.metric == "ssim_diffuse")]
     mean = mean[mean.split == "test"].value.item()
     want = ssim[(ssim.model == "MoMoPRT") & (ssim.split == "test")].value.mean()
@@ -341,7 +341,7 @@ def test_evaluation_scores_every_network_momoprt_and_the_ground_truths_on_val_an
 
 
 def test_every_network_records_its_training_budget(evaluated):
-    scores = evaluated["scores"]
+    scores = evaluated["metrics"]
     budget = scores[scores.metric.str.startswith("epochs_")]
     assert set(budget.model) == {"DeepPRT", "DeepPRT shadowing", "DeepPRT int8"} | {
         "DeepPRT shadowing int8"
@@ -349,15 +349,34 @@ def test_every_network_records_its_training_budget(evaluated):
     assert (budget.value == TRAIN["epochs"]).all() and len(budget) == 4 * 2
 
 
-def test_equal_quality_adds_only_timing_rows_to_the_scores(evaluated):
-    metrics, scores = evaluated["metrics"], evaluated["scores"]
-    pd.testing.assert_frame_equal(metrics.head(len(scores)), scores)
-    timing = metrics.iloc[len(scores) :]
-    assert set(timing.split) == {"timing"}
-    traced = set(timing[timing.model == "ground truth"].metric)
-    for d in EVALUATE["equal_quality_directions"]:
-        assert {f"gt_seconds_per_frame_{d}_dirs", f"gt_ssim_{d}_dirs"} <= traced
-    assert (timing[timing.metric.str.startswith("gt_seconds")].value > 0).all()
+def test_equal_quality_times_every_direction_count_and_picks_by_the_shared_rule(evaluated):
+    from neurender import equal_quality as shared
+    from neurender.prt.equal_quality import QUALITY, RAY_TRACED
+
+    table = evaluated["equal_quality"]
+    assert set(table.split) == {shared.SPLIT} and set(table.dataset) == {"head"}
+    traced = table[table.model == RAY_TRACED]
+    counts = EVALUATE["equal_quality_directions"]
+    assert set(traced.setting) == {f"{d} directions" for d in counts}
+    assert (traced[traced.metric == "ms_per_frame"].value > 0).all()
+    scores = traced.pivot_table(index="setting", columns="metric", values="value").reset_index()
+    frames_ = evaluated["frames"]
+    for model in ("DeepPRT", "DeepPRT shadowing", "DeepPRT int8", "DeepPRT shadowing int8"):
+        mine = table[table.model == model]
+        value = mine.set_index("metric")["value"]
+        # Its SSIM: its mean diffuse SSIM on the same first test frames as the estimates.
+        ssim = frames_[
+            (frames_.model == model)
+            & (frames_.metric == "ssim_diffuse")
+            & (frames_.split == "test")
+            & (frames_.frame < CFG["noise_floor_frames"])
+        ]
+        assert value["ssim_diffuse"] == pytest.approx(ssim.value.mean())
+        pick = shared.pick(scores, {"ssim_diffuse": value["ssim_diffuse"]}, QUALITY)
+        assert (mine.setting.iloc[0], mine.bound.iloc[0]) == (pick.setting, pick.bound)
+        assert value["equal_quality_speedup"] == pytest.approx(
+            pick.ms_per_frame / value["ms_per_frame"]
+        )
 
 
 def test_equal_quality_writes_a_deployment_row_per_network_and_material(evaluated):
@@ -513,6 +532,7 @@ def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
     jobs.prt_experiment(inputs, experiment, {**params, "object": "head_excluded"}, 1)
     summary_inputs = {
         "metrics": [head / "metrics.csv"],
+        "equal_quality": [head / "equal_quality.csv"],
         "deployment": [head / "deployment.csv", experiment["deployment"]],
         "checkpoints": [files[p]["checkpoint"] for p in pairs],
         "onnx": [files[p]["onnx"] for p in pairs],
@@ -523,14 +543,15 @@ def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
         "experiments": [experiment["csv"]],
         "unseen": unseen["csv"],
     }
-    names = ("metrics", "deployment", "compression", "targets")
+    names = ("metrics", "equal_quality", "deployment", "compression", "targets")
     outputs = {name: tmp_path / f"summary_{name}.csv" for name in names}
-    outputs |= {"loss": tmp_path / "loss.png", "equal_quality": tmp_path / "equal_quality.png"}
+    outputs |= {"loss": tmp_path / "loss.png", "equal_quality_figure": tmp_path / "eq.png"}
     params = {"objects": ["head"], "variants": variants, "shipped": "shadowing"}
     params |= {"resolution": CFG["resolution"], "n_bands": CFG["n_bands"]}
-    params |= {"equal_quality_directions": EVALUATE["equal_quality_directions"]}
     jobs.prt_model_summary(summary_inputs, outputs, params, 1)
     pd.testing.assert_frame_equal(io.read_csv(outputs["metrics"]), evaluated["metrics"])
+    equal = io.read_csv(outputs["equal_quality"])
+    pd.testing.assert_frame_equal(equal, evaluated["equal_quality"])
     deployment = io.read_csv(outputs["deployment"])
     assert len(deployment) == len(evaluated["deployment"]) + len(variants)  # + the experiment's
     compression = io.read_csv(outputs["compression"])
@@ -545,5 +566,7 @@ def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
         set(targets.subject) >= {"head", "head_excluded"} and targets.met.isin([True, False]).all()
     )
     assert targets.check.str.contains("DeepPRT shadowing").all()
-    for png in ("loss", "equal_quality"):
+    speed = targets[targets.check.str.contains("faster than the cheapest ray-traced transfer")]
+    assert len(speed) == 2  # the shipped variant's float32 and int8 graphs
+    for png in ("loss", "equal_quality_figure"):
         assert _image(outputs[png]).std() > 1

@@ -159,7 +159,7 @@ READERS: dict[str, set[str]] = {
         "prt_unseen",
     },
     "prt_model.glossy_exponent": {"prt_evaluate", "prt_unseen"},
-    "prt_model.equal_quality_directions": {"prt_equal_quality", "prt_model_summary"},
+    "prt_model.equal_quality_directions": {"prt_equal_quality"},
     "prt_model.unseen_strengths": {"prt_unseen"},
     "prt_model.unseen_frames": {"prt_unseen"},
     # The variants trained are also jobs that appear or disappear (prt_train's).

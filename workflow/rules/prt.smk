@@ -346,7 +346,7 @@ rule prt_evaluate:
         ),
         light=PRT_LIGHT,
     output:
-        scores="results/prt/{object}/scores.csv",
+        metrics="results/prt/{object}/metrics.csv",
         frames="results/prt/{object}/metrics_frames.csv",
         figure=report(
             "results/prt/figures/{object}_prediction.png",
@@ -378,10 +378,9 @@ rule prt_equal_quality:
         onnx=prt_variant_files("onnx"),
         int8=prt_variant_files("int8.onnx"),
         light=PRT_LIGHT,
-        scores="results/prt/{object}/scores.csv",
         frames="results/prt/{object}/metrics_frames.csv",
     output:
-        metrics="results/prt/{object}/metrics.csv",
+        equal_quality="results/prt/{object}/equal_quality.csv",
         deployment="results/prt/{object}/deployment.csv",
     log:
         "results/logs/prt_equal_quality/{object}.log",
@@ -403,6 +402,7 @@ rule prt_equal_quality:
 rule prt_model_summary:
     input:
         metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
+        equal_quality=expand("results/prt/{object}/equal_quality.csv", object=PRT_OBJECTS),
         deployment=expand("results/prt/{object}/deployment.csv", object=PRT_OBJECTS)
         + expand("results/prt/{x}/experiment_deployment.csv", x=PRT_EXPERIMENTS),
         checkpoints=prt_variant_files("pt", PRT_OBJECTS),
@@ -436,6 +436,12 @@ rule prt_model_summary:
             subcategory="models",
             labels={"table": "compression"},
         ),
+        equal_quality=report(
+            "results/prt/equal_quality.csv",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"table": "equal quality"},
+        ),
         deployment="results/prt/deployment.csv",
         targets=report(
             "results/prt/targets.csv",
@@ -449,7 +455,7 @@ rule prt_model_summary:
             subcategory="models",
             labels={"figure": "training curves"},
         ),
-        equal_quality=report(
+        equal_quality_figure=report(
             "results/prt/figures/equal_quality.png",
             category="DeepPRT",
             subcategory="models",

@@ -7,26 +7,27 @@ upsampled to ``W`` by nearest neighbour, so silhouettes stay binary). Its qualit
 of the test set's metrics (:func:`neurender.metaballs.evaluate.example_metrics`):
 silhouette IoU by depth (``iou_depth``, higher is better) and the mean normal error in
 degrees (``normal_error_mean_deg``, lower is better), against the same ray-marched targets
-as the networks, on the same first test examples. The cheapest setting
-whose two means both reach a network's is its equal-quality marcher; the ratio of its
-milliseconds per frame to the network's (inputs and network, as the speed table) is the
-equal-quality speed-up. The strongest no-learning renderer
-(:data:`neurender.metaballs.REFINED_BASELINE`) is timed and compared alike, its frame
-the whole render. Times are wall-clock medians of :func:`neurender.timing.timed`,
-the marchers' and the networks' on the same scenes, machine and threads.
+as the networks, on the same first test examples. The fastest setting
+whose two means both reach a network's is its equal-quality marcher (the shared rule,
+:mod:`neurender.equal_quality`, with its bounds); the ratio of its milliseconds per frame
+to the network's (inputs and network, as the speed table) is the equal-quality speed-up.
+The strongest no-learning renderer (:data:`neurender.metaballs.REFINED_BASELINE`) is
+timed and compared alike, its frame the whole render. Times are wall-clock medians of
+:func:`neurender.timing.timed`, the marchers' and the networks' on the same scenes,
+machine and threads.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
-import math
 from collections.abc import Callable, Iterable, Sequence
 
 import pandas as pd
 import torch
 from matplotlib.ticker import NullFormatter, ScalarFormatter
 
+from neurender import equal_quality as shared
 from neurender.metaball import BISECTIONS, MIN_STEP, Scene
 from neurender.metaballs import (
     EQUAL_QUALITY_BISECTIONS,
@@ -38,14 +39,13 @@ from neurender.metaballs import (
 )
 from neurender.metaballs.evaluate import TEST_DATASET
 from neurender.plots import plt, save_figure
-from neurender.tables import tidy_rows
 from neurender.timing import timed
 
 #: The two metrics of equal quality and whether higher is better.
 QUALITY = {"iou_depth": True, "normal_error_mean_deg": False}
 #: The ``model`` and ``split`` of the sweep's rows in :func:`table`.
 RAY_MARCHER = "ray marcher"
-SPLIT = "equal quality"
+SPLIT = shared.SPLIT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -145,28 +145,16 @@ def renderer_ms_per_frame(
     return 1e3 * total / len(scenes)
 
 
-def reaches(scores: pd.DataFrame, target: dict[str, float]) -> pd.Series:
-    """Bool per row of ``scores``: every :data:`QUALITY` metric at least as good as
-    ``target``'s (the network's means on the same examples)."""
-    ok = pd.Series(True, index=scores.index)
-    for metric, higher in QUALITY.items():
-        ok &= scores[metric] >= target[metric] if higher else scores[metric] <= target[metric]
-    return ok
+def settings(scores: pd.DataFrame) -> pd.DataFrame:
+    """:func:`score_settings`' rows as the shared rule reads them (:mod:`neurender.
+    equal_quality`): ``setting`` (the marcher's label), ``ms_per_frame`` and the quality."""
+    return scores[["label", "ms_per_frame", *QUALITY]].rename(columns={"label": "setting"})
 
 
-def cheapest(scores: pd.DataFrame, target: dict[str, float]) -> pd.Series | None:
-    """The row of the fastest setting that :func:`reaches` ``target``; ``None`` if none."""
-    good = scores[reaches(scores, target)]
-    return None if good.empty else good.loc[good["ms_per_frame"].idxmin()]
-
-
-def equal_quality_speedup(
-    scores: pd.DataFrame, target: dict[str, float], network_ms: float
-) -> float:
-    """Milliseconds of the :func:`cheapest` marcher of ``target``'s quality over the
-    network's; NaN when no setting reaches it (the sweep is then too coarse to say)."""
-    best = cheapest(scores, target)
-    return math.nan if best is None else float(best["ms_per_frame"]) / network_ms
+def cheapest(scores: pd.DataFrame, target: dict[str, float]) -> shared.Pick:
+    """The fastest marcher of :func:`score_settings`' ``scores`` that reaches ``target``'s
+    quality on both metrics, or the bound (:func:`neurender.equal_quality.pick`)."""
+    return shared.pick(settings(scores), target, QUALITY)
 
 
 def network_targets(frame: pd.DataFrame, examples: Sequence[int]) -> dict[str, dict[str, float]]:
@@ -180,28 +168,16 @@ def network_targets(frame: pd.DataFrame, examples: Sequence[int]) -> dict[str, d
 def table(
     scores: pd.DataFrame, networks: dict[str, tuple[dict[str, float], float]]
 ) -> pd.DataFrame:
-    """Tidy rows: per setting of :func:`score_settings` (model :data:`RAY_MARCHER`, key
-    ``setting``) its ``ms_per_frame`` and quality; per network (``networks``: name to its
-    quality and ms per frame) the same, the speed-up over the reference marcher and
-    ``equal_quality_speedup`` (NaN where no setting reaches it), and the picked setting's
-    ``equal_quality_marcher_ms`` (key ``setting`` its label, ``none`` where none)."""
-    rows = []
-    for r in scores.itertuples():
-        values = {"ms_per_frame": r.ms_per_frame, **{m: getattr(r, m) for m in QUALITY}}
-        rows += tidy_rows("metaballs", TEST_DATASET, RAY_MARCHER, SPLIT, values, setting=r.label)
+    """The equal-quality table (:func:`neurender.equal_quality.table`: model
+    :data:`RAY_MARCHER` per setting of :func:`score_settings`, of the test set): per
+    network (``networks``: name to its quality and ms per frame) beside the shared rows its
+    ``speedup_vs_reference_marcher``."""
     reference_ms = float(scores.loc[scores["label"] == REFERENCE.label, "ms_per_frame"].iloc[0])
-    for name, (means, ms) in networks.items():
-        best = cheapest(scores, means)
-        values = {
-            "ms_per_frame": ms,
-            **{m: means[m] for m in QUALITY},
-            "speedup_vs_reference_marcher": reference_ms / ms,
-            "equal_quality_speedup": equal_quality_speedup(scores, means, ms),
-            "equal_quality_marcher_ms": math.nan if best is None else best["ms_per_frame"],
-        }
-        setting = "none" if best is None else best["label"]
-        rows += tidy_rows("metaballs", TEST_DATASET, name, SPLIT, values, setting=setting)
-    return pd.DataFrame(rows)
+    rows = {
+        name: shared.Network(means, ms, {"speedup_vs_reference_marcher": reference_ms / ms})
+        for name, (means, ms) in networks.items()
+    }
+    return shared.table("metaballs", TEST_DATASET, RAY_MARCHER, settings(scores), rows, QUALITY)
 
 
 def quality_figure(
@@ -228,10 +204,11 @@ def quality_figure(
             marker, label = ("*", name) if learned else ("D", f"{name} (no learning)")
             star = ax.scatter([ms], [means[metric]], marker=marker, s=160, label=label, zorder=3)
             best = cheapest(scores, means)
-            if best is not None:
+            if best.bound != shared.LOWER:
+                row = settings(scores).set_index("setting").loc[best.setting]
                 ax.scatter(
-                    [best["ms_per_frame"]],
-                    [best[metric]],
+                    [row["ms_per_frame"]],
+                    [row[metric]],
                     marker="x",
                     s=80,
                     color=star.get_facecolor()[0],

@@ -21,10 +21,10 @@ on one thread, peak memory the resident memory a frame added
 (:func:`neurender.timing.peak_memory`).
 
 The equal-quality speed-up at each count and width (:func:`equal_quality_rows`): for each
-network and each no-learning renderer, the cheapest of its settings whose mean quality
+network and each no-learning renderer, the fastest of its settings whose mean quality
 over the scenes reaches the network's on every metric of
 :data:`neurender.metaballs.equal_quality.QUALITY`, and the ratio of its time to the
-network's; where none reaches it, the ratio of the best setting's time, marked ``bound``.
+network's, or a bound on it: the shared rule of :mod:`neurender.equal_quality`.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
+from neurender import equal_quality as shared
 from neurender.metaball import Scene
 from neurender.metaballs import (
     density_mesh,
@@ -260,20 +261,13 @@ def means(rows: pd.DataFrame) -> pd.DataFrame:
     return rows.groupby(keys, sort=False, as_index=False)["value"].mean()
 
 
-def _reaches(values: Mapping[str, float], target: Mapping[str, float]) -> bool:
-    return all(
-        (values[m] >= target[m]) if higher else (values[m] <= target[m])
-        for m, higher in QUALITY.items()
-    )
-
-
 def equal_quality_rows(mean: pd.DataFrame, networks: Sequence[str]) -> pd.DataFrame:
     """Per network, count, width and no-learning renderer (the exact one included): the
-    cheapest setting whose mean quality reaches the network's on every metric of
+    fastest setting whose mean quality reaches the network's on every metric of
     :data:`QUALITY` (the network's quality at its trained width where it was only timed at
-    this one), its time, the network's and their ratio ``speedup``; where none reaches it,
-    its most expensive setting and ``bound`` true: a setting of the network's quality, if
-    the renderer has one, costs more than the settings tried."""
+    this one), its time, the network's and their ratio ``speedup``, and its ``bound``: the
+    shared rule, :func:`neurender.equal_quality.pick` (where none reaches it, the slowest
+    setting and a lower bound)."""
     wide = mean.pivot_table(
         index=["renderer", "setting", "balls", "width"],
         columns="metric",
@@ -293,22 +287,18 @@ def equal_quality_rows(mean: pd.DataFrame, networks: Sequence[str]) -> pd.DataFr
             for name, settings in others[~others.renderer.isin(networks)].groupby(
                 "renderer", sort=False
             ):
-                ok = [s for s in settings.itertuples() if _reaches(s._asdict(), target)]
-                if ok:
-                    pick = min(ok, key=lambda s: s.ms_per_frame)._asdict()
-                else:
-                    pick = settings.loc[settings.ms_per_frame.idxmax()].to_dict()
+                pick = shared.pick(settings, target, QUALITY)
                 out.append(
                     {
                         "network": net,
                         "renderer": name,
                         "balls": row.balls,
                         "width": row.width,
-                        "setting": pick["setting"],
-                        "renderer_ms": pick["ms_per_frame"],
+                        "setting": pick.setting,
+                        "renderer_ms": pick.ms_per_frame,
                         "network_ms": row.ms_per_frame,
-                        "speedup": pick["ms_per_frame"] / row.ms_per_frame,
-                        "bound": not ok,
+                        "speedup": pick.ms_per_frame / row.ms_per_frame,
+                        "bound": pick.bound,
                         "quality_from_width": int(source.iloc[0].width),
                     }
                 )
@@ -338,7 +328,7 @@ def scale_figure(mean: pd.DataFrame, equal: pd.DataFrame, network: str, path: st
         for name, rows in picks[picks.renderer != EXACT].groupby("renderer", sort=False):
             line = ax.plot(rows.balls, rows.renderer_ms, "-", label=f"{name} (equal quality)")[0]
             for bound, part in rows.groupby("bound"):
-                face = "none" if bound else line.get_color()
+                face = "none" if bound == shared.LOWER else line.get_color()
                 ax.scatter(part.balls, part.renderer_ms, color=line.get_color(), facecolors=face)
         ax.set(xscale="log", yscale="log", xlabel="balls", ylabel="ms per frame")
         ax.set_title(f"{width} x {width} px, 1 thread")

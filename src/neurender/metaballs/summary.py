@@ -14,6 +14,7 @@ import math
 
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender.metaballs import EMPTY_FRAMES, REFINED_BASELINE
 from neurender.tables import Target, lookup, target_table, threshold, tidy_rows
 
@@ -97,16 +98,12 @@ def speed_targets(timing: pd.DataFrame) -> list[Target]:
 
 
 def equal_quality_targets(equal: pd.DataFrame) -> list[Target]:
-    """Per network: its frame at least the threshold's times faster than the cheapest ray
-    marcher of its quality (``equal_quality.csv``; missed where no marcher reaches it)."""
+    """Per network (not the no-learning renderers): its frame at least the threshold's
+    times faster than the cheapest ray marcher of its quality (``equal_quality.csv``, the
+    shared rule's targets: :func:`neurender.equal_quality.targets`)."""
     least = threshold("metaballs", "equal_quality_speedup")
-    out = []
     networks = equal[~equal["model"].str.endswith(BASELINE_SUFFIX)]
-    for s in networks[networks["metric"] == "equal_quality_speedup"].itertuples():
-        marcher = f"({s.setting})" if s.setting != "none" else "(none of the sweep reaches it)"
-        check = f"frame >= {least:g}x faster than the cheapest ray marcher of its quality {marcher}"
-        out.append(Target(s.model, check, float(s.value), float(s.value) >= least))
-    return out
+    return shared.targets(networks, least, "ray marcher")
 
 
 def targets(

@@ -8,15 +8,14 @@ at the training ``spp`` is that render) at every sample count of a sweep; each r
 scored as :func:`neurender.ndr.evaluate.score` scores the networks: DSSIM of ``I_R``,
 Reinhard tone-mapped, within the eroded mask, against the clean test reference
 (``reference_spp``). NDR's quality is its mean DSSIM on the same samples in the
-evaluation's per-sample table. The cheapest sample count whose mean DSSIM is at most
-NDR's is its equal-quality render (:func:`pick`); the ratio of that render's milliseconds
+evaluation's per-sample table. The fastest sample count whose mean DSSIM is at most
+NDR's is its equal-quality render (:func:`pick`, the shared rule of
+:mod:`neurender.equal_quality`); the ratio of that render's milliseconds
 to NDR's end to end (the coarse shading by the data's estimator,
 :func:`neurender.ndr.data.coarse_maps`, with the map's lighting made once per map, plus
 the network at batch 1; the G-buffers, which a rasteriser makes, are not counted) is the
-equal-quality speed-up. A sweep is coarse: the true cheapest render of NDR's quality costs
-at most the pick's, so the speed-up is that of the sweep's grid; where no sample count
-reaches NDR the most expensive one gives a lower bound, and where the fewest already beats
-NDR an upper bound (:data:`BOUNDS`).
+equal-quality speed-up, or a bound on it
+(:data:`neurender.equal_quality.BOUNDS`).
 
 Times are wall-clock medians of :func:`neurender.timing.timed` per sample (after one
 uncounted call) averaged over the samples, on the same machine, samples and threads. A
@@ -38,6 +37,7 @@ import pandas as pd
 import torch
 from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
+from neurender import equal_quality as shared
 from neurender.ndr import DATASETS, EQUAL_QUALITY_REPEATS, data, render
 from neurender.ndr.buffers import NDRDataset
 from neurender.ndr.evaluate import score
@@ -54,18 +54,11 @@ METRIC = "dssim_I_R"
 MITSUBA = "mitsuba"
 NETWORK = "ndr"
 NETWORK_INT8 = "ndr_int8"
-SPLIT = "equal quality"
+SPLIT = shared.SPLIT
 #: The ``split`` of the shipped graphs' scores on whole test splits.
 GRAPH_SPLIT = "test (shipped graph)"
 #: What each NDR model of the table is.
 GRAPH_LABELS = {NETWORK: "NDR", NETWORK_INT8: "NDR, int8 graph"}
-#: What a network's ``equal_quality_speedup`` is: the sweep's pick, or a bound on it.
-WITHIN, LOWER, UPPER = "within the sweep", "lower bound", "upper bound"
-BOUNDS = {
-    WITHIN: "against the cheapest sample count of the sweep whose DSSIM reaches NDR's",
-    LOWER: "no sample count of the sweep reaches NDR's DSSIM: against the most samples",
-    UPPER: "the sweep's fewest samples already beat NDR's DSSIM: against them",
-}
 
 
 def sweep(spps: Sequence[int], training_spp: int) -> list[int]:
@@ -220,68 +213,48 @@ def network_dssim(per_sample: pd.DataFrame, samples: Sequence[int], model: str =
     return float(part["value"].mean())
 
 
-@dataclasses.dataclass(frozen=True)
-class Pick:
-    """The render a network is compared with: its ``spp`` (None where none reaches the
-    network), its ``ms_per_frame`` and what the ratio to it is (:data:`BOUNDS`)."""
-
-    spp: int | None
-    ms_per_frame: float
-    bound: str
+#: The quality compared, lower is better (:mod:`neurender.equal_quality`).
+QUALITY = {METRIC: False}
 
 
-def pick(scores: pd.DataFrame, target: float) -> Pick:
-    """The fastest row of :func:`score_sweep`'s ``scores`` whose DSSIM is at most
-    ``target`` (equal times: the fewer samples); where none is, the most samples
-    (:data:`LOWER`); :data:`UPPER` where the fewest samples of the sweep reach it."""
-    reached = scores[scores[METRIC] <= target]
-    if reached.empty:
-        most = scores.loc[scores["spp"].idxmax()]
-        return Pick(None, float(most["ms_per_frame"]), LOWER)
-    best = reached.sort_values(["ms_per_frame", "spp"]).iloc[0]
-    fewest = scores["spp"].min() in set(reached["spp"])
-    return Pick(int(best["spp"]), float(best["ms_per_frame"]), UPPER if fewest else WITHIN)
+def label(spp: int) -> str:
+    """A sample count's ``setting``."""
+    return f"{spp} spp"
 
 
-def label(spp: int | None) -> str:
-    return "none" if spp is None else f"{spp} spp"
+def settings(scores: pd.DataFrame) -> pd.DataFrame:
+    """:func:`score_sweep`'s rows as the shared rule reads them: ``setting`` (the sample
+    count's label) for ``spp``."""
+    return scores.assign(setting=scores["spp"].map(label)).drop(columns="spp")
+
+
+def pick(scores: pd.DataFrame, target: float) -> shared.Pick:
+    """The fastest sample count of :func:`score_sweep`'s ``scores`` whose DSSIM is at most
+    ``target``, or the bound (:func:`neurender.equal_quality.pick`)."""
+    return shared.pick(settings(scores), {METRIC: target}, QUALITY)
 
 
 def table(
     scores: pd.DataFrame, networks: dict[str, dict[str, float]], training_spp: int
 ) -> pd.DataFrame:
-    """Tidy rows (key columns ``setting``, ``bound``): per sample count (model
-    :data:`MITSUBA`, setting ``<spp> spp``) its ``ms_per_frame``, ``scene_ms`` and DSSIM; per
-    NDR graph (``networks``: model name, :data:`NETWORK` or :data:`NETWORK_INT8`, -> its
-    times, at least ``ms_per_frame``, and its DSSIM) those values, ``training_spp``,
-    ``speedup_vs_training_spp`` (Mitsuba at ``training_spp`` over the graph's frame),
-    ``equal_quality_spp`` (NaN where none), ``equal_quality_mitsuba_ms`` and
-    ``equal_quality_speedup``; its setting the pick's (``none``), its bound the pick's
-    (:data:`BOUNDS`; the Mitsuba rows' ``measured``)."""
-    dataset, rows = DATASETS["complex"], []
-    for r in scores.itertuples():
-        values = {"ms_per_frame": r.ms_per_frame, "scene_ms": r.scene_ms}
-        values[METRIC] = getattr(r, METRIC)
-        rows += tidy_rows(
-            "ndr", dataset, MITSUBA, SPLIT, values, setting=label(r.spp), bound="measured"
-        )
+    """The equal-quality table (:func:`neurender.equal_quality.table`, model
+    :data:`MITSUBA` per sample count, of the complex test set): per NDR graph
+    (``networks``: model name, :data:`NETWORK` or :data:`NETWORK_INT8`, -> its times, at
+    least ``ms_per_frame``, and its DSSIM) beside the shared rows its ``training_spp`` and
+    ``speedup_vs_training_spp`` (Mitsuba at ``training_spp`` over the graph's frame)."""
     training = scores.loc[scores["spp"] == training_spp, "ms_per_frame"]
     if training.empty:
         raise ValueError(f"the sweep has no row at the training spp {training_spp}")
+    graphs = {}
     for name, network in networks.items():
-        chosen = pick(scores, network[METRIC])
         ms = network["ms_per_frame"]
-        values = {
-            **network,
+        extra = {k: v for k, v in network.items() if k not in ("ms_per_frame", METRIC)}
+        extra |= {
             "training_spp": training_spp,
             "speedup_vs_training_spp": float(training.iloc[0]) / ms,
-            "equal_quality_spp": np.nan if chosen.spp is None else chosen.spp,
-            "equal_quality_mitsuba_ms": chosen.ms_per_frame,
-            "equal_quality_speedup": chosen.ms_per_frame / ms,
         }
-        setting, bound = label(chosen.spp), chosen.bound
-        rows += tidy_rows("ndr", dataset, name, SPLIT, values, setting=setting, bound=bound)
-    return pd.DataFrame(rows)
+        graphs[name] = shared.Network({METRIC: network[METRIC]}, ms, extra)
+    return shared.table("ndr", DATASETS["complex"], MITSUBA, settings(scores), graphs, QUALITY)
 
 
 def quality_figure(
@@ -317,8 +290,8 @@ def quality_figure(
         ax.scatter([ms], [target], marker="*", s=220, color=colour, zorder=3, label=graph)
         ax.axhline(target, color=colour, ls="--", lw=0.8)
         chosen = pick(scores, target)
-        if chosen.spp is not None:
-            row = scores[scores["spp"] == chosen.spp].iloc[0]
+        if chosen.bound != shared.LOWER:
+            row = settings(scores).set_index("setting").loc[chosen.setting]
             ax.scatter(
                 [row["ms_per_frame"]],
                 [row[METRIC]],
@@ -326,13 +299,11 @@ def quality_figure(
                 s=90,
                 color=colour,
                 zorder=3,
-                label=f"cheapest of its DSSIM ({chosen.spp} spp)",
+                label=f"cheapest of its DSSIM ({chosen.setting})",
             )
-        ratio, equal = float(train["ms_per_frame"].iloc[0]) / ms, chosen.ms_per_frame / ms
-        note = "" if chosen.bound == WITHIN else f" ({chosen.bound})"
-        titles.append(
-            f"{graph} {ratio:.2g}x at {training_spp} spp, {equal:.2g}x at equal DSSIM{note}"
-        )
+        ratio = float(train["ms_per_frame"].iloc[0]) / ms
+        equal = shared.stated(chosen.ms_per_frame / ms, chosen.bound)
+        titles.append(f"{graph} {ratio:.2g}x at {training_spp} spp, {equal} at equal DSSIM")
     ax.set_xscale("log")
     ax.set_yscale("log")
     for axis in (ax.xaxis, ax.yaxis):  # after the scales, which reset them; 1-2-5 ticks

@@ -9,6 +9,7 @@ from __future__ import annotations
 import pandas as pd
 import torch
 
+from neurender import equal_quality as shared
 from neurender import io
 from neurender.ndr import equal_quality as eq
 from neurender.ndr import split_kind
@@ -94,9 +95,8 @@ def _beats(ndr: float, name: str, other: float) -> Target:
 def speed_targets(equal: pd.DataFrame) -> list[Target]:
     """Each NDR graph of the equal-quality table (``equal_quality.csv``, :mod:`neurender.ndr.
     equal_quality`; NDR, and its int8 graph where the table has it) end to end against
-    Mitsuba: at the training spp, and at equal DSSIM of ``I_R``, where a lower bound that
-    reaches the threshold is met and an upper bound never is (the graph is then worse than
-    the sweep's fewest samples)."""
+    Mitsuba: at the training spp, and at equal DSSIM of ``I_R`` (the shared rule's targets,
+    :func:`neurender.equal_quality.targets`)."""
     rows = []
     for model, suffix in ((eq.NETWORK, ""), (eq.NETWORK_INT8, " (int8 graph)")):
         graph = equal[(equal["model"] == model) & (equal["split"] == eq.SPLIT)]
@@ -116,20 +116,8 @@ def speed_targets(equal: pd.DataFrame) -> list[Target]:
                 ratio >= least,
             )
         )
-        least = threshold("ndr", "equal_quality_speedup")
-        bound, setting = graph["bound"].iloc[0], graph["setting"].iloc[0]
-        which = setting if bound == eq.WITHIN else f"{bound}: {eq.BOUNDS[bound]}"
-        ratio = float(value["equal_quality_speedup"])
-        rows.append(
-            Target(
-                f"Mitsuba at equal DSSIM{suffix}",
-                f"{what} end to end at least {least:g}x faster than the cheapest Mitsuba "
-                f"render of its DSSIM(I_R) ({which}) (measured: ratio)",
-                ratio,
-                ratio >= least and bound != eq.UPPER,
-            )
-        )
-    return rows
+    least = threshold("ndr", "equal_quality_speedup")
+    return rows + shared.targets(equal[equal["split"] == eq.SPLIT], least, "Mitsuba render")
 
 
 def int8_targets(equal: pd.DataFrame) -> list[Target]:

@@ -1,11 +1,12 @@
 """Inference time against ray tracing: speed-up and the equal-quality ratio (paper 3.2.4).
 
 The network's time is the median of 51 predictions of one frame (inputs, network and
-decoding) by the engine it ships with (``inference_ms_per_frame``; ONNX Runtime on the
-CPU); every other engine it holds is timed beside it (``inference_ms_per_frame_<engine>``).
-The equal-quality ratio compares that time with the time of the cheapest ray-traced
-ground truth (direction counts from ``equal_quality_directions``) whose mean diffuse SSIM
-against the clean reference reaches the network's, on the first test frames. All on the
+decoding) by the engine it ships with (``ms_per_frame``; ONNX Runtime on the CPU); every
+other engine it holds is timed beside it (``inference_ms_per_frame_<engine>``). The
+equal-quality ratio compares that time with the time of the fastest ray-traced ground
+truth (direction counts from ``equal_quality_directions``) whose mean diffuse SSIM
+against the clean reference reaches the network's, on the first test frames: the shared
+rule of :mod:`neurender.equal_quality`, with its bounds. All on the
 same machine and threads. Every variant's diffuse network (its model name,
 :data:`neurender.prt.VARIANTS`) gets its own rows beside the same ray-traced estimates.
 The same times of every network (each variant, diffuse and glossy) are its rows of the
@@ -20,12 +21,12 @@ import time
 import numpy as np
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender.deployment import deployment_row, onnx_check_error
 from neurender.prt import transfer
 from neurender.prt.frames import Split, ray_offset
 from neurender.prt.model import DeepPRT
 from neurender.prt.scores import diffuse_ssim
-from neurender.tables import tidy_rows
 from neurender.timing import hardware, timed
 
 
@@ -117,49 +118,34 @@ def ray_traced_estimates(
     return out, (out[reference] if reference in out else trace(reference, False))[0]
 
 
-def network_timing_rows(
-    name: str,
-    model: str,
-    net: DeepPRT,
-    engine_s: dict[str, float],
-    target: float,
-    estimates: dict[int, tuple[float, float]],
-    reference_s: float,
-) -> list[dict]:
-    """One variant's timing rows: its time per engine, the speed-up over the reference,
-    its SSIM target, and the direction count and equal-quality ratio of the cheapest
-    ray-traced estimate (``directions -> (seconds, SSIM)``) that reaches ``target``.
-    When none does (the network is better than every estimate timed), the ratio is taken
-    against the most directions and flagged ``equal_quality_lower_bound = 1``: an
-    estimate of the network's SSIM costs at least that much."""
+#: The reference renderer's name in the table and the quality compared (higher is better).
+RAY_TRACED = "ray traced"
+QUALITY = {"ssim_diffuse": True}
+
+
+def label(directions: int) -> str:
+    """A direction count's ``setting``."""
+    return f"{directions} directions"
+
+
+def network_row(
+    net: DeepPRT, engine_s: dict[str, float], ssim: float, reference_s: float
+) -> shared.Network:
+    """A diffuse network's side of the comparison: its frame by the engine it ships with,
+    its mean diffuse ``ssim`` on the sweep's frames, its time by every other engine
+    (``inference_ms_per_frame_<engine>``) and ``speedup_vs_reference_gt``: the clean
+    reference's seconds per frame (``reference_s``) over its own."""
     net_s = engine_s[net.engine]
-    times = {"inference_ms_per_frame": 1000 * net_s}
-    times |= {
+    extra = {
         f"inference_ms_per_frame_{engine}": 1000 * s
         for engine, s in engine_s.items()
         if engine != net.engine
     }
-    ordered = sorted(estimates.items())
-    matched = [(d, s) for d, (s, ssim) in ordered if ssim >= target]
-    bound = not matched and math.isfinite(target)
-    if matched:
-        directions, equal = matched[0]
-    elif bound:
-        directions, equal = ordered[-1][0], ordered[-1][1][0]
-    else:
-        directions, equal = math.nan, math.nan
-    values = {
-        **times,
-        "speedup_vs_reference_gt": reference_s / net_s,
-        "equal_quality_ssim_target": target,
-        "equal_quality_directions": directions,
-        "equal_quality_speedup": equal / net_s,
-        "equal_quality_lower_bound": float(bound),
-    }
-    return tidy_rows("prt", name, model, "timing", values)
+    extra["speedup_vs_reference_gt"] = reference_s / net_s
+    return shared.Network({"ssim_diffuse": ssim}, 1000 * net_s, extra)
 
 
-def timing_rows(
+def table(
     name: str,
     nets: dict[str, DeepPRT],
     engine_s: dict[str, dict[str, float]],
@@ -169,8 +155,10 @@ def timing_rows(
     threads: int,
     frames: pd.DataFrame,
 ) -> pd.DataFrame:
-    """Timing rows of one object: the ray-traced estimates' times and SSIMs (traced once
-    for all variants) and, per variant, :func:`network_timing_rows`.
+    """The equal-quality table of one object (:func:`neurender.equal_quality.table`,
+    dataset ``name``): the ray-traced estimates per direction count (model
+    :data:`RAY_TRACED`, traced once for all variants) and every diffuse network against
+    the fastest of its SSIM (:func:`network_row`).
 
     Args:
         nets: model name (:data:`neurender.prt.VARIANTS`) -> its diffuse network.
@@ -182,24 +170,20 @@ def timing_rows(
     test_ssim = frames[
         (frames.split == "test") & (frames.metric == "ssim_diffuse") & (frames.frame < count)
     ]
-    targets = {m: float(test_ssim[test_ssim.model == m].value.mean()) for m in nets}
-    estimates, reference = ray_traced_estimates(name, test, count, light, cfg, threads)
-    rows = []
-    for directions, (seconds, ssim) in estimates.items():
-        rows += tidy_rows(
-            "prt",
-            name,
-            "ground truth",
-            "timing",
-            {
-                f"gt_seconds_per_frame_{directions}_dirs": seconds,
-                f"gt_ssim_{directions}_dirs": ssim,
-            },
+    estimates, reference_s = ray_traced_estimates(name, test, count, light, cfg, threads)
+    scores = pd.DataFrame(
+        [
+            {"setting": label(d), "ms_per_frame": 1000 * seconds, "ssim_diffuse": ssim}
+            for d, (seconds, ssim) in estimates.items()
+        ]
+    )
+    networks = {
+        model: network_row(
+            net,
+            engine_s[model],
+            float(test_ssim[test_ssim.model == model].value.mean()),
+            reference_s,
         )
-    gt = {"gt_seconds_per_frame_reference": reference}
-    rows += tidy_rows("prt", name, "ground truth", "timing", gt)
-    for model, net in nets.items():
-        rows += network_timing_rows(
-            name, model, net, engine_s[model], targets[model], estimates, reference
-        )
-    return pd.DataFrame(rows)
+        for model, net in nets.items()
+    }
+    return shared.table("prt", name, RAY_TRACED, scores, networks, QUALITY)

@@ -8,16 +8,17 @@ Radiance images are shown divided by their ground truth's maximum with gamma 2.2
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender import io, lights, sh
 from neurender.display import gamma, tonemap
 from neurender.plots import plt, save_figure
 from neurender.prt import MATERIALS, transfer
+from neurender.prt import equal_quality as eq
 from neurender.prt.frames import read_frame, read_sh_light
 
 
@@ -132,46 +133,49 @@ def loss_figure(loss_csvs: dict, out: str) -> None:
     save_figure(fig, out)
 
 
-def _equal_quality_panel(ax, timing: pd.DataFrame, model: str, directions: list[int]):
+def _equal_quality_panel(ax, equal: pd.DataFrame, model: str):
     """One variant's panel of :func:`equal_quality_figure`; returns ``(lowest SSIM
     target, every time drawn in ms)``."""
     lowest, span = 1.0, []
-    for i, (name, rows) in enumerate(timing.groupby("dataset", sort=True)):
-        rows = rows[rows.model.isin(["ground truth", model])]
-        value = rows.set_index("metric")["value"]
-        counts = sorted(directions)
-        ms = [1000 * value[f"gt_seconds_per_frame_{c}_dirs"] for c in counts]
-        ssims = [value[f"gt_ssim_{c}_dirs"] for c in counts]
-        target = value["equal_quality_ssim_target"]
+    for i, (name, rows) in enumerate(equal.groupby("dataset", sort=True)):
+        traced = rows[rows.model == eq.RAY_TRACED].pivot_table(
+            index="setting", columns="metric", values="value", sort=False
+        )
+        traced = traced.sort_values("ms_per_frame")
+        mine = rows[rows.model == model]
+        if mine.empty:
+            continue
+        value = mine.set_index("metric")["value"]
+        target = value["ssim_diffuse"]
         lowest = min(lowest, target)
         colour = f"C{i}"
-        ax.plot(ms, ssims, "o-", ms=3, color=colour, label=f"{name}: ray traced")
-        for c, x, y in zip(counts, ms, ssims, strict=True):
+        ax.plot(
+            traced["ms_per_frame"],
+            traced["ssim_diffuse"],
+            "o-",
+            ms=3,
+            color=colour,
+            label=f"{name}: ray traced",
+        )
+        for setting, r in traced.iterrows():
             ax.annotate(
-                str(c),
-                (x, y),
+                setting.split()[0],
+                (r["ms_per_frame"], r["ssim_diffuse"]),
                 fontsize=6,
                 color=colour,
                 xytext=(3, -9 - 7 * i),
                 textcoords="offset points",
             )
-        ratio = value["equal_quality_speedup"]
+        stated = shared.stated(value[shared.SPEEDUP], mine["bound"].iloc[0])
         ax.plot(
-            [value["inference_ms_per_frame"]],
+            [value["ms_per_frame"]],
             [target],
             "*",
             ms=12,
             color=colour,
-            label=f"{name}: network, "
-            + (
-                "no SSIM"
-                if not math.isfinite(ratio)
-                else f">= {ratio:.1f}x (SSIM above every ray-traced count)"
-                if value.get("equal_quality_lower_bound", 0) == 1
-                else f"{ratio:.1f}x at equal SSIM"
-            ),
+            label=f"{name}: network, {stated} at equal SSIM",
         )
-        span += [*ms, value["inference_ms_per_frame"]]
+        span += [*traced["ms_per_frame"], value["ms_per_frame"]]
         if "inference_ms_per_frame_pytorch" in value:  # the same network in PyTorch
             ax.plot(
                 [value["inference_ms_per_frame_pytorch"]],
@@ -186,19 +190,18 @@ def _equal_quality_panel(ax, timing: pd.DataFrame, model: str, directions: list[
     return lowest, span
 
 
-def equal_quality_figure(
-    table: pd.DataFrame, directions: list[int], models: list[str], out: str
-) -> None:
+def equal_quality_figure(equal: pd.DataFrame, models: list[str], out: str) -> None:
     """SSIM against the clean reference vs milliseconds per frame, a panel per variant
-    (``models``: their names): the ray-traced estimates of every count in ``directions``
-    (a curve per object) and the variant's network (a star; a hollow star: the same
-    network run by PyTorch, where timed), measured on the first test frames; the
-    equal-quality ratio is the horizontal gap."""
-    timing = table[table.split == "timing"]
+    (``models``: their names), from the equal-quality table ``equal``
+    (:func:`neurender.prt.equal_quality.table`, every object's): the ray-traced estimates
+    of every direction count (a curve per object, labelled with its count) and the
+    variant's network (a star; a hollow star: the same network run by PyTorch, where
+    timed), measured on the first test frames; the equal-quality ratio is the horizontal
+    gap."""
     fig, axes = plt.subplots(1, len(models), figsize=(6.5 * len(models), 3.8), squeeze=False)
     ticks = (0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000)
     for ax, model in zip(axes[0], models, strict=True):
-        lowest, span = _equal_quality_panel(ax, timing, model, directions)
+        lowest, span = _equal_quality_panel(ax, equal, model)
         ax.set_xscale("log")
         ax.xaxis.set_major_formatter(plt.ScalarFormatter())
         ax.xaxis.set_minor_formatter(plt.NullFormatter())

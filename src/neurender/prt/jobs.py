@@ -232,7 +232,7 @@ def prt_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> Non
         epochs = {f"epochs_{m}": train.epochs_trained(checkpoints[v, m]) for m in MATERIALS}
         for model in (VARIANTS[v], int8_name(VARIANTS[v])):
             budget += tidy_rows("prt", name, model, "test", epochs)
-    io.write_csv(outputs["scores"], pd.concat([aggregate(scores), pd.DataFrame(budget)]))
+    io.write_csv(outputs["metrics"], pd.concat([aggregate(scores), pd.DataFrame(budget)]))
     int8 = {int8_name(m) for m in VARIANTS.values()}
     float32 = {k: p for k, p in panels.items() if k[0] not in int8}
     figures.prediction_figure(name, float32, outputs["figure"])
@@ -242,19 +242,19 @@ def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     """Every network of :func:`prt_evaluate` timed on the first test frame by each of its
     engines and against ray-traced ground truth of its quality
     (:mod:`neurender.prt.equal_quality`), all on this job's ``threads`` (the rule takes
-    every core); the object's ``metrics``: the evaluation's ``scores`` and the timing rows;
-    its ``deployment`` rows (each network's times and ONNX file)."""
+    every core): the object's ``equal_quality`` table and its ``deployment`` rows (each
+    network's times and ONNX file)."""
     from neurender.deployment import deployment_table
-    from neurender.prt.equal_quality import deployment_rows, inference_seconds, timing_rows
+    from neurender.prt import equal_quality
 
     name, variants = params["object"], params["variants"]
     seq = io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
     test = split_frames(inputs, seq, "test", params["n_bands"])
     nets, files, _ = _networks(inputs, params, threads)
-    engine_s = {key: inference_seconds(net, test) for key, net in nets.items()}
+    engine_s = {key: equal_quality.inference_seconds(net, test) for key, net in nets.items()}
     models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
-    timing = timing_rows(
+    equal = equal_quality.table(
         name,
         {model: nets[model, "diffuse"] for model in models},
         {model: engine_s[model, "diffuse"] for model in models},
@@ -266,7 +266,7 @@ def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
     )
     deployment = []
     for model in models:
-        deployment += deployment_rows(
+        deployment += equal_quality.deployment_rows(
             name,
             {m: nets[model, m] for m in MATERIALS},
             {m: files[model, m] for m in MATERIALS},
@@ -276,8 +276,7 @@ def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
             model,
         )
     io.write_csv(outputs["deployment"], deployment_table(deployment))
-    table = pd.concat([io.read_csv(inputs["scores"]), timing], ignore_index=True)
-    io.write_csv(outputs["metrics"], table)
+    io.write_csv(outputs["equal_quality"], equal)
 
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
@@ -292,6 +291,8 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     names, variants = params["objects"], params["variants"]
     table = pd.concat([io.read_csv(p) for p in inputs["metrics"]], ignore_index=True)
     io.write_csv(outputs["metrics"], table)
+    equal = pd.concat([io.read_csv(p) for p in inputs["equal_quality"]], ignore_index=True)
+    io.write_csv(outputs["equal_quality"], equal)
     deployment = [read_deployment(p) for p in inputs["deployment"]]
     io.write_csv(outputs["deployment"], pd.concat(deployment, ignore_index=True))
     splits = len(SPLITS)
@@ -317,12 +318,11 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     io.write_csv(outputs["compression"], compression.reset_index(drop=True))
     experiments = [io.read_csv(p) for p in inputs["experiments"]]
     unseen = io.read_csv(inputs["unseen"])
-    io.write_csv(outputs["targets"], summary.target_frame(table, experiments, shipped, unseen))
+    targets = summary.target_frame(table, equal, experiments, shipped, unseen)
+    io.write_csv(outputs["targets"], targets)
     figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
     models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
-    figures.equal_quality_figure(
-        table, params["equal_quality_directions"], models, outputs["equal_quality"]
-    )
+    figures.equal_quality_figure(equal, models, outputs["equal_quality_figure"])
 
 
 def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

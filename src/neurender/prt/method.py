@@ -200,7 +200,8 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     object) of DeepPRT's report section."""
     objects = list(config["prt"]["objects"])
     experiments = EXPERIMENTS if config["prt"]["experiments"] else ()
-    tables = ("targets", "metrics", "compression", "deployment", "data", "noise_floor")
+    tables = ("targets", "metrics", "equal_quality", "compression", "deployment", "data")
+    tables += ("noise_floor",)
     tables += ("benchmark", "unseen")
     kinds = ("prediction", "unseen", "frames", "meshes")
     fixed = ["loss_curves", "equal_quality", "light_probes"]

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender import io, train
 from neurender.nn.unet import count_parameters
 from neurender.prt import MATERIALS, VARIANTS, int8_name, noise, unseen_scores
@@ -93,7 +94,7 @@ def shipped_rows(onnx_files: dict, model: str) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
+def targets(metrics_table: pd.DataFrame, equal: pd.DataFrame, model: str = PAPER) -> list[Target]:
     """Per object and material, of the shipped variant ``model``: test SSIM (and on
     extrapolated frames) at least the target, above MoMoPRT's; where the paper's form
     (``DeepPRT``) was trained too (has rows in the table), the shipped variant's test
@@ -101,9 +102,9 @@ def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
     is below the score of an independent ray-traced estimate at the reference's own
     direction count, :func:`neurender.prt.noise.reference_quality_label`); the
     equal-quality speed ratio at least its target, of the float32 graph and of its int8
-    graph (where the table has it, with that graph's :func:`int8_targets`)."""
+    graph (the equal-quality table ``equal``: the shared rule's targets,
+    :func:`neurender.equal_quality.targets`), and the int8 graph's :func:`int8_targets`."""
     ssim_target = threshold("prt", "ssim")
-    speed_target = threshold("prt", "equal_quality_speedup")
     versus = threshold("prt", "rel_l1_vs_paper")
     compare = model != PAPER and bool((metrics_table.model == PAPER).any())
     reference_model = noise.reference_quality_label(metrics_table.model.unique())
@@ -134,17 +135,10 @@ def targets(metrics_table: pd.DataFrame, model: str = PAPER) -> list[Target]:
                         " reference: not measurable against this reference)"
                     )
                 rows.append(Target(dataset, check, ours, bool(ours <= versus * paper)))
-        for network in (model, int8_name(model)):
-            v = get(network, "timing", "equal_quality_speedup")
-            if network != model and math.isnan(v):
-                continue  # a table from before the int8 graphs
-            bound = get(network, "timing", "equal_quality_lower_bound") == 1
-            # A lower bound that meets the target is a pass: the true ratio is at least it.
-            note = " (a lower bound: its SSIM is above every ray-traced count)" if bound else ""
-            check = f"{network} equal-quality speed ratio >= {speed_target:g}x{note}"
-            rows.append(Target(dataset, check, v, bool(v >= speed_target)))
         rows += int8_targets(metrics_table, dataset, model)
-    return rows
+    shipped = equal[equal["model"].isin([model, int8_name(model)])]
+    least = threshold("prt", "equal_quality_speedup")
+    return rows + shared.targets(shipped, least, "ray-traced transfer")
 
 
 def int8_targets(metrics_table: pd.DataFrame, dataset: str, model: str) -> list[Target]:
@@ -204,14 +198,16 @@ def experiment_targets(table: pd.DataFrame, model: str = PAPER) -> list[Target]:
 
 def target_frame(
     metrics_table: pd.DataFrame,
+    equal: pd.DataFrame,
     experiments: list[pd.DataFrame],
     model: str = PAPER,
     unseen: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
-    """Every DeepPRT target of the shipped variant ``model`` (:func:`targets`,
+    """Every DeepPRT target of the shipped variant ``model`` (:func:`targets` of the
+    metrics and the equal-quality table ``equal``,
     :func:`experiment_targets` and, given the unseen-deformation table ``unseen``,
     :func:`neurender.prt.unseen_scores.targets` against the paper form) as one table."""
-    rows = targets(metrics_table, model)
+    rows = targets(metrics_table, equal, model)
     for table in experiments:
         rows += experiment_targets(table, model)
     if unseen is not None:

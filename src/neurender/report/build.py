@@ -34,7 +34,7 @@ from typing import Any
 import jinja2
 import pandas as pd
 
-from neurender import io, methods, viewer_data
+from neurender import equal_quality, io, methods, viewer_data
 from neurender.deployment import ENGINE_COLUMNS, ENGINE_NAMES, read_deployment
 from neurender.method import Method, Study
 from neurender.tables import TIDY_COLUMNS, lookup
@@ -279,6 +279,32 @@ def deployment_summary(tables: Sequence[Path]) -> dict | None:
     }
 
 
+def equal_quality_summary(tables: Sequence[Path]) -> str:
+    """The summary's equal-quality table (HTML, "" when no method has one): every network
+    of every method's ``results/<method>/equal_quality.csv`` among ``tables`` (methods in
+    report order, :mod:`neurender.equal_quality`'s rows), its speed-up over the fastest
+    setting of its reference renderer that reaches its quality, stated with its bound,
+    and that setting."""
+    files = [t for t in tables if (key := _method_of(t)) and table_name(t, key) == "equal_quality"]
+    if not files:
+        return ""
+    order = {m.key: i for i, m in enumerate(methods.METHODS)}
+    files.sort(key=lambda t: order[_method_of(t)])
+    rows = pd.concat([equal_quality.speedups(io.read_csv(f)) for f in files], ignore_index=True)
+    shown = pd.DataFrame(
+        {
+            "method": rows.method.map(_short_title),
+            "dataset": rows.dataset.map(html.escape),
+            "network": rows.model.map(html.escape),
+            "x faster at equal quality": [
+                html.escape(equal_quality.stated(r.speedup, r.bound)) for r in rows.itertuples()
+            ],
+            "against": rows.setting.map(html.escape),
+        }
+    )
+    return _table_html(shown)
+
+
 def _viewer(path: Path, index: int) -> dict:
     viewer = viewer_data.read(path)
     return {
@@ -399,6 +425,8 @@ def build_report(
         run_info=run_info or {},
         viewer_code=code,
         deployment=deployment_summary([Path(t) for t in tables]),
+        equal_quality=equal_quality_summary([Path(t) for t in tables]),
+        bounds=equal_quality.BOUNDS,
         provenance=provenance,
         generated=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )

@@ -170,7 +170,7 @@ def prt_equal_quality_params(wildcards):
 def prt_model_summary_params():
     return prt_params(
         ("resolution", "n_bands"),
-        ("equal_quality_directions", "variants", "shipped"),
+        ("variants", "shipped"),
         objects=PRT_OBJECTS,
     )
 
