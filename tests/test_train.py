@@ -346,3 +346,10 @@ def test_a_checkpoint_with_tensors_and_plain_types_loads_with_weights_only(tmp_p
     assert ckpt["extra"]["widths"] == [4, 8] and ckpt["extra"]["betas"] == (0.5, 0.9)
     torch.testing.assert_close(ckpt["extra"]["offset"], torch.arange(3.0))
     assert ckpt["config"]["betas"] == (0.9, 0.999) and ckpt["config"]["seed"] == 3
+
+
+def test_an_unchanged_run_keeps_its_resume_key():
+    """A resume file written by an earlier version is continued only while the key of the
+    same config, architecture and data stays what it was (this one: d4ed726's)."""
+    key = train.resume_key(_cfg(3), _model(), "data v1")
+    assert key == "5a5b156482d0d822add2e1f132670e00ccc117313b469fc11687755ad6780b79"
