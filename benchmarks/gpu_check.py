@@ -197,13 +197,11 @@ def _fit(check: Check, device: str, epochs: int, folder: Path, name: str, data=N
     torch.manual_seed(0)
     train.fit(
         check.model,
-        data or check.data,
-        None,
+        train.FitData(data or check.data, None),
         loss or check.loss,
         config,
-        folder / f"{name}.pt",
-        folder / f"{name}.csv",
-        adversary=check.adversary,
+        train.FitOutputs(folder / f"{name}.pt", folder / f"{name}.csv"),
+        check.adversary,
     )
     return config
 

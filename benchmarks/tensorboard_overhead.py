@@ -78,14 +78,15 @@ def measure(case: str, model, train_set, val_set, epochs: int) -> dict:
         start = time.perf_counter()
         train.fit(
             model,
-            train_set,
-            val_set,
+            train.FitData(train_set, val_set),
             _l1,
             config,
-            Path(tmp) / "m.pt",
-            Path(tmp) / "l.csv",
-            tensorboard=Path(tmp) / "tb" / tensorboard_log.MARKER,
-            previews=tensorboard_log.Previews(_images),
+            train.FitOutputs(
+                Path(tmp) / "m.pt",
+                Path(tmp) / "l.csv",
+                tensorboard=Path(tmp) / "tb" / tensorboard_log.MARKER,
+                previews=tensorboard_log.Previews(_images),
+            ),
         )
         wall = time.perf_counter() - start
     logging = sum(spent.values())

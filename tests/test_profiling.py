@@ -21,7 +21,8 @@ def _fit_and_an_outside_backward(tmp_path):
         epochs=2, batch_size=8, lr=1e-3, lr_schedule="constant", seed=1, device="cpu", threads=1
     )
     sets = TensorDataset(x[:48], y[:48]), TensorDataset(x[48:], y[48:])
-    train.fit(model, *sets, loss_fn, config, tmp_path / "m.pt", tmp_path / "loss.csv")
+    outputs = train.FitOutputs(tmp_path / "m.pt", tmp_path / "loss.csv")
+    train.fit(model, train.FitData(*sets), loss_fn, config, outputs)
     big = torch.randn(256, 256, requires_grad=True)
     (big @ big).square().sum().backward()
 

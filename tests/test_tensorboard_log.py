@@ -46,14 +46,12 @@ def _fit(tmp_path, name, epochs=4, loss=_loss, previews=PREVIEWS):
     marker = tmp_path / "tensorboard" / name / tensorboard_log.MARKER
     history = train.fit(
         _model(),
-        train_set,
-        val_set,
+        train.FitData(train_set, val_set),
         loss,
         _cfg(epochs),
-        tmp_path / f"{name}.pt",
-        tmp_path / f"{name}.csv",
-        tensorboard=marker,
-        previews=previews,
+        train.FitOutputs(
+            tmp_path / f"{name}.pt", tmp_path / f"{name}.csv", tensorboard=marker, previews=previews
+        ),
     )
     return history, marker
 
@@ -146,7 +144,8 @@ def test_a_fresh_run_replaces_an_earlier_runs_event_files(tmp_path):
 def test_logging_does_not_change_training(tmp_path):
     train_set, val_set = _problem()
     plain = _model()
-    train.fit(plain, train_set, val_set, _loss, _cfg(), tmp_path / "a.pt", tmp_path / "a.csv")
+    outputs = train.FitOutputs(tmp_path / "a.pt", tmp_path / "a.csv")
+    train.fit(plain, train.FitData(train_set, val_set), _loss, _cfg(), outputs)
     _fit(tmp_path, "b")
     a = train.load_checkpoint(tmp_path / "a.pt")["last_model"]
     b = train.load_checkpoint(tmp_path / "b.pt")["last_model"]

@@ -1,4 +1,6 @@
 import pickle
+import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -27,6 +29,15 @@ def _loss(model, batch):
     return loss, {"mae": float((model(x) - y).detach().abs().mean())}
 
 
+def _data(key=""):
+    return train.FitData(*_problem(), key)
+
+
+def _outputs(tmp_path, name, **kwargs):
+    """The checkpoint ``{name}.pt`` and loss log ``{name}.csv`` in ``tmp_path``."""
+    return train.FitOutputs(tmp_path / f"{name}.pt", tmp_path / f"{name}.csv", **kwargs)
+
+
 def _cfg(epochs, device="cpu", seed=3):
     return train.TrainConfig(
         epochs=epochs,
@@ -40,11 +51,8 @@ def _cfg(epochs, device="cpu", seed=3):
 
 
 def test_training_reduces_loss_and_writes_tidy_log(tmp_path):
-    train_set, val_set = _problem()
-    hist = train.fit(
-        _model(), train_set, val_set, _loss, _cfg(8), tmp_path / "m.pt", tmp_path / "log.csv"
-    )
-    log = pd.read_csv(tmp_path / "log.csv")
+    hist = train.fit(_model(), _data(), _loss, _cfg(8), _outputs(tmp_path, "m"))
+    log = pd.read_csv(tmp_path / "m.csv")
     assert list(log.columns) == ["epoch", "split", "metric", "value"]
     val = hist[(hist.split == "val") & (hist.metric == "loss")].value.to_numpy()
     assert val[-1] < 0.2 * val[0]
@@ -54,13 +62,10 @@ def test_training_reduces_loss_and_writes_tidy_log(tmp_path):
 
 
 def test_resume_after_interruption_is_identical(tmp_path):
-    train_set, val_set = _problem()
-    full = _model()
-    train.fit(full, train_set, val_set, _loss, _cfg(4), tmp_path / "full.pt", tmp_path / "full.csv")
+    train.fit(_model(), _data(), _loss, _cfg(4), _outputs(tmp_path, "full"))
     resume = _interrupted_run(tmp_path, _cfg(4), epochs_done=2)
     assert torch.load(resume, weights_only=True)["epoch"] == 2  # tensors and plain types only
-    resumed = _model()
-    train.fit(resumed, train_set, val_set, _loss, _cfg(4), tmp_path / "r.pt", tmp_path / "r.csv")
+    train.fit(_model(), _data(), _loss, _cfg(4), _outputs(tmp_path, "r"))
     a = torch.load(tmp_path / "full.pt", weights_only=True)
     b = torch.load(tmp_path / "r.pt", weights_only=True)
     for k in a["last_model"]:
@@ -69,16 +74,12 @@ def test_resume_after_interruption_is_identical(tmp_path):
 
 
 def test_nan_loss_raises_clear_error(tmp_path):
-    train_set, val_set = _problem()
-
     def nan_loss(model, batch):
         x, y = batch
         return (model(x) * float("nan")).mean(), {}
 
     with pytest.raises(FloatingPointError, match="epoch 1, step 1"):
-        train.fit(
-            _model(), train_set, val_set, nan_loss, _cfg(1), tmp_path / "m.pt", tmp_path / "l.csv"
-        )
+        train.fit(_model(), _data(), nan_loss, _cfg(1), _outputs(tmp_path, "m"))
     assert not (tmp_path / "m.pt").exists()
 
 
@@ -92,7 +93,6 @@ def test_resolve_device_and_config_errors():
 
 
 def test_adversary_is_trained_after_each_step_and_saved(tmp_path):
-    train_set, val_set = _problem()
     critic = torch.nn.Linear(1, 1)
     before = critic.weight.detach().clone()
     seen = {"aux": 0}
@@ -109,16 +109,7 @@ def test_adversary_is_trained_after_each_step_and_saved(tmp_path):
         return module(fake).mean() - module(y).mean(), {"gap": 0.0}
 
     adv = train.Adversary(critic, critic_loss)
-    train.fit(
-        _model(),
-        train_set,
-        val_set,
-        gen_loss,
-        _cfg(2),
-        tmp_path / "g.pt",
-        tmp_path / "g.csv",
-        adversary=adv,
-    )
+    train.fit(_model(), _data(), gen_loss, _cfg(2), _outputs(tmp_path, "g"), adv)
     assert seen["aux"] == 2 * 4  # one adversary step per model step
     assert not torch.equal(before, critic.weight.detach())
     ckpt = train.load_checkpoint(tmp_path / "g.pt")
@@ -142,7 +133,6 @@ def test_a_training_key_missing_from_the_stage_is_named_not_defaulted():
 
 def _interrupted_run(tmp_path, cfg, data_key="", epochs_done=1):
     """A run stopped by an exception after ``epochs_done`` epochs: its resume file stays."""
-    train_set, val_set = _problem()
     calls = {"n": 0}
 
     def interrupting_loss(model, batch):
@@ -152,16 +142,7 @@ def _interrupted_run(tmp_path, cfg, data_key="", epochs_done=1):
         return _loss(model, batch)
 
     with pytest.raises(KeyboardInterrupt):
-        train.fit(
-            _model(),
-            train_set,
-            val_set,
-            interrupting_loss,
-            cfg,
-            tmp_path / "r.pt",
-            tmp_path / "r.csv",
-            data_key=data_key,
-        )
+        train.fit(_model(), _data(data_key), interrupting_loss, cfg, _outputs(tmp_path, "r"))
     return train.resume_path_for(tmp_path / "r.pt")
 
 
@@ -177,19 +158,10 @@ def _interrupted_run(tmp_path, cfg, data_key="", epochs_done=1):
 def test_a_stale_resume_file_is_discarded_with_a_log_line(tmp_path, caplog, change):
     resume = _interrupted_run(tmp_path, _cfg(3), data_key="data v1")
     assert resume.exists()
-    train_set, val_set = _problem()
     cfg = train.TrainConfig(**{**vars(_cfg(3)), **change.get("config", {})})
+    model, data = change.get("model", _model()), _data(change.get("data_key", "data v1"))
     with caplog.at_level("WARNING", logger="neurender.train"):
-        train.fit(
-            change.get("model", _model()),
-            train_set,
-            val_set,
-            _loss,
-            cfg,
-            tmp_path / "r.pt",
-            tmp_path / "r.csv",
-            data_key=change.get("data_key", "data v1"),
-        )
+        train.fit(model, data, _loss, cfg, _outputs(tmp_path, "r"))
     assert "discarding stale resume file" in caplog.text and str(resume) in caplog.text
     history = train.load_checkpoint(tmp_path / "r.pt")["history"]
     assert [h["epoch"] for h in history] == [1, 2, 3]  # trained from scratch
@@ -197,50 +169,27 @@ def test_a_stale_resume_file_is_discarded_with_a_log_line(tmp_path, caplog, chan
 
 def test_a_matching_resume_file_is_continued(tmp_path, caplog):
     _interrupted_run(tmp_path, _cfg(3), data_key="data v1")
-    train_set, val_set = _problem()
     with caplog.at_level("INFO", logger="neurender.train"):
-        train.fit(
-            _model(),
-            train_set,
-            val_set,
-            _loss,
-            _cfg(3),
-            tmp_path / "r.pt",
-            tmp_path / "r.csv",
-            data_key="data v1",
-        )
+        train.fit(_model(), _data("data v1"), _loss, _cfg(3), _outputs(tmp_path, "r"))
     assert "resuming from" in caplog.text and "after epoch 1" in caplog.text
 
 
 def test_nan_validation_loss_stops_training_naming_epoch_and_batch(tmp_path):
-    train_set, val_set = _problem()
-
     def nan_in_eval(model, batch):
         loss, logs = _loss(model, batch)
         return (loss * float("nan") if not model.training else loss), logs
 
     with pytest.raises(FloatingPointError, match="validation loss became nan at epoch 1, batch 1"):
-        train.fit(
-            _model(),
-            train_set,
-            val_set,
-            nan_in_eval,
-            _cfg(2),
-            tmp_path / "m.pt",
-            tmp_path / "l.csv",
-        )
+        train.fit(_model(), _data(), nan_in_eval, _cfg(2), _outputs(tmp_path, "m"))
     assert not (tmp_path / "m.pt").exists()
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
-    train_set, val_set = _problem()
     cfg = _cfg(3, device="cuda")
-    full = _model()
-    train.fit(full, train_set, val_set, _loss, cfg, tmp_path / "full.pt", tmp_path / "f.csv")
+    train.fit(_model(), _data(), _loss, cfg, _outputs(tmp_path, "full"))
     _interrupted_run(tmp_path, cfg)
-    resumed = _model()
-    train.fit(resumed, train_set, val_set, _loss, cfg, tmp_path / "r.pt", tmp_path / "r.csv")
+    train.fit(_model(), _data(), _loss, cfg, _outputs(tmp_path, "r"))
     a = train.load_checkpoint(tmp_path / "full.pt")["last_model"]
     b = train.load_checkpoint(tmp_path / "r.pt")["last_model"]
     for k in a:  # dropout draws from the CUDA generator: equal only if it was restored
@@ -249,14 +198,10 @@ def test_resume_on_cuda_restores_the_cuda_rng(tmp_path):
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_two_cuda_runs_with_one_seed_are_identical(tmp_path):
-    train_set, val_set = _problem()
     cfg = _cfg(2, device="cuda", seed=5)
     runs = []
     for name in ("a", "b"):
-        model = _model()
-        train.fit(
-            model, train_set, val_set, _loss, cfg, tmp_path / f"{name}.pt", tmp_path / "l.csv"
-        )
+        train.fit(_model(), _data(), _loss, cfg, _outputs(tmp_path, name))
         runs.append(train.load_checkpoint(tmp_path / f"{name}.pt")["last_model"])
     for k in runs[0]:
         torch.testing.assert_close(runs[0][k], runs[1][k], rtol=0, atol=0)
@@ -289,11 +234,8 @@ def test_a_checkpoint_holding_a_pickled_object_is_refused_naming_the_file(tmp_pa
 def test_a_resume_file_holding_a_pickled_object_is_discarded_unrun(tmp_path, caplog):
     resume, marker = train.resume_path_for(tmp_path / "r.pt"), tmp_path / "ran"
     torch.save({"key": "k", "epoch": 2, "history": [_RunsCode(marker)]}, resume)
-    train_set, val_set = _problem()
     with caplog.at_level("WARNING", logger="neurender.train"):
-        train.fit(
-            _model(), train_set, val_set, _loss, _cfg(2), tmp_path / "r.pt", tmp_path / "r.csv"
-        )
+        train.fit(_model(), _data(), _loss, _cfg(2), _outputs(tmp_path, "r"))
     assert not marker.exists()
     assert f"discarding unreadable resume file {resume}" in caplog.text
     assert "objects other than tensors and plain types" in caplog.text
@@ -310,39 +252,64 @@ def test_a_resume_file_holding_a_pickled_object_is_discarded_unrun(tmp_path, cap
     ],
     ids=["array", "numpy scalar", "float key"],
 )
-def test_extra_state_other_than_tensors_and_plain_types_fails_before_training(
-    tmp_path, value, where
-):
-    train_set, val_set = _problem()
+def test_extra_other_than_tensors_and_plain_types_fails_before_training(tmp_path, value, where):
     extra = {"norm": value, "widths": [4, 8]}
-    with pytest.raises(TypeError, match=r"extra_state of .*m.pt" + where):
-        train.fit(
-            _model(),
-            train_set,
-            val_set,
-            _loss,
-            _cfg(1),
-            tmp_path / "m.pt",
-            tmp_path / "l.csv",
-            extra_state=extra,
-        )
-    assert not (tmp_path / "m.pt").exists() and not (tmp_path / "l.csv").exists()
+    with pytest.raises(TypeError, match=r"FitOutputs\(checkpoint='.*m.pt'\).extra" + where):
+        train.fit(_model(), _data(), _loss, _cfg(1), _outputs(tmp_path, "m", extra=extra))
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_checkpoint_with_tensors_and_plain_types_loads_with_weights_only(tmp_path):
-    train_set, val_set = _problem()
     extra = {"offset": torch.arange(3.0), "widths": [4, 8], "name": "a", "betas": (0.5, 0.9)}
-    train.fit(
-        _model(),
-        train_set,
-        val_set,
-        _loss,
-        _cfg(1),
-        tmp_path / "m.pt",
-        tmp_path / "l.csv",
-        extra_state=extra,
-    )
+    train.fit(_model(), _data(), _loss, _cfg(1), _outputs(tmp_path, "m", extra=extra))
     ckpt = torch.load(tmp_path / "m.pt", weights_only=True)
     assert ckpt["extra"]["widths"] == [4, 8] and ckpt["extra"]["betas"] == (0.5, 0.9)
     torch.testing.assert_close(ckpt["extra"]["offset"], torch.arange(3.0))
     assert ckpt["config"]["betas"] == (0.9, 0.999) and ckpt["config"]["seed"] == 3
+
+
+_VALID = {
+    train.FitData: {"train": TensorDataset(torch.zeros(4, 3)), "val": None, "key": ""},
+    train.FitOutputs: {"checkpoint": "m.pt", "log": "m.csv", "extra": {}, "tensorboard": None},
+}
+
+
+@pytest.mark.parametrize(
+    ("cls", "field", "value", "expected"),
+    [
+        (train.FitData, "train", object(), "a map-style dataset"),
+        (train.FitData, "val", 3, "a map-style dataset"),
+        (train.FitData, "key", None, "a str"),
+        (train.FitOutputs, "checkpoint", None, "a str or Path"),
+        (train.FitOutputs, "log", 3, "a str or Path"),
+        (train.FitOutputs, "tensorboard", ["tb"], "a str or Path"),
+        (train.FitOutputs, "extra", [("a", 1)], "a mapping"),
+        (train.FitOutputs, "previews", _loss, "Previews"),
+    ],
+)
+def test_a_field_of_the_wrong_type_is_named_with_what_was_expected(cls, field, value, expected):
+    message = f"{cls.__name__}.{field} is a {type(value).__name__}; expected {expected}"
+    with pytest.raises(TypeError, match=f"^{re.escape(message)}$"):
+        cls(**_VALID[cls] | {field: value})
+
+
+def test_an_empty_training_set_is_refused():
+    with pytest.raises(ValueError, match="^FitData.train is empty; expected at least one sample$"):
+        train.FitData(TensorDataset(torch.zeros(0, 3)), None)
+
+
+def test_fit_outputs_keep_paths_as_path_and_a_copy_of_extra(tmp_path):
+    extra = {"widths": [4, 8]}
+    outputs = train.FitOutputs(
+        str(tmp_path / "m.pt"), str(tmp_path / "m.csv"), extra, "tb/run.json"
+    )
+    extra["widths"] = [16]  # the caller's dict changing later does not change the checkpoint
+    assert outputs.checkpoint == tmp_path / "m.pt" and outputs.tensorboard == Path("tb/run.json")
+    assert isinstance(outputs.log, Path) and outputs.extra == {"widths": [4, 8]}
+
+
+def test_an_unchanged_run_keeps_its_resume_key():
+    """A resume file written by an earlier version is continued only while the key of the
+    same config, architecture and data stays what it was (this one: d4ed726's)."""
+    key = train.resume_key(_cfg(3), _model(), "data v1")
+    assert key == "5a5b156482d0d822add2e1f132670e00ccc117313b469fc11687755ad6780b79"

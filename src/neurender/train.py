@@ -25,6 +25,7 @@ import dataclasses
 import hashlib
 import logging
 import math
+import os
 import pickle
 import sys
 import time
@@ -98,6 +99,61 @@ class TrainConfig:
         return cls.from_dict(
             {**{k: v for k, v in cfg.items() if k in names}, "threads": threads, **overrides}
         )
+
+
+def _check_type(value: Any, types: type | tuple[type, ...], where: str, expected: str) -> None:
+    if not isinstance(value, types):
+        raise TypeError(f"{where} is a {type(value).__name__}; expected {expected}")
+
+
+def _check_dataset(value: Any, where: str) -> None:
+    if not (hasattr(value, "__len__") and hasattr(value, "__getitem__")):
+        raise TypeError(f"{where} is a {type(value).__name__}; expected a map-style dataset")
+
+
+@dataclasses.dataclass(frozen=True)
+class FitData:
+    """What :func:`fit` trains on: map-style datasets (``__len__``, ``__getitem__``) whose
+    samples are tensors, tuples or dicts of tensors."""
+
+    train: Dataset  # at least one sample; reshuffled every epoch from the config's seed
+    val: Dataset | None  # None: the best epoch is the one of lowest training loss
+    key: str = ""  # the data's fingerprint (e.g. io.checksum of its files); see resume_key
+
+    def __post_init__(self):
+        _check_dataset(self.train, "FitData.train")
+        if len(self.train) == 0:
+            raise ValueError("FitData.train is empty; expected at least one sample")
+        if self.val is not None:
+            _check_dataset(self.val, "FitData.val")
+        _check_type(self.key, str, "FitData.key", "a str")
+
+
+@dataclasses.dataclass(frozen=True)
+class FitOutputs:
+    """What :func:`fit` writes (paths given as str are kept as Path). The checkpoint is a
+    ``torch.save`` dict: ``model`` (the best validation epoch's weights), ``last_model``,
+    ``config``, ``history``, ``best_val``, ``extra`` and, with an adversary, ``adversary``."""
+
+    checkpoint: Path  # the final checkpoint; the resume file is resume_path_for(checkpoint)
+    log: Path  # tidy CSV of losses: epoch, split, metric, value
+    # the checkpoint's ``extra`` (e.g. target normalisation): tensors and plain types only
+    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    tensorboard: Path | None = None  # marker of the TensorBoard event folder; None: no events
+    previews: tensorboard_log.Previews | None = None  # validation images in it; None: none
+
+    def __post_init__(self):
+        paths = {"checkpoint": self.checkpoint, "log": self.log}
+        if self.tensorboard is not None:
+            paths["tensorboard"] = self.tensorboard
+        for name, value in paths.items():
+            _check_type(value, (str, os.PathLike), f"FitOutputs.{name}", "a str or Path")
+            object.__setattr__(self, name, Path(value))  # frozen: set here only
+        _check_type(self.extra, Mapping, "FitOutputs.extra", "a mapping")
+        object.__setattr__(self, "extra", dict(self.extra))
+        check_plain(self.extra, f"FitOutputs(checkpoint={str(self.checkpoint)!r}).extra")
+        if self.previews is not None:
+            _check_type(self.previews, tensorboard_log.Previews, "FitOutputs.previews", "Previews")
 
 
 def resume_path_for(checkpoint_path: str | Path) -> Path:
@@ -345,49 +401,38 @@ def _start(
 
 def fit(
     model: torch.nn.Module,
-    train_set: Dataset,
-    val_set: Dataset | None,
+    data: FitData,
     loss_fn: LossFn,
     config: TrainConfig,
-    checkpoint_path: str | Path,
-    log_path: str | Path,
-    extra_state: Mapping[str, Any] | None = None,
+    outputs: FitOutputs,
     adversary: Adversary | None = None,
-    data_key: str = "",
-    tensorboard: str | Path | None = None,
-    previews: tensorboard_log.Previews | None = None,
 ) -> pd.DataFrame:
     """Train ``model`` with Adam and write its final checkpoint and loss log.
 
     Args:
         model: module; moved to the resolved device.
-        train_set, val_set: map-style datasets yielding tensors, tuples or dicts of tensors.
+        data: the training and validation sets and the data's fingerprint (:class:`FitData`).
         loss_fn: ``(model, batch) -> (scalar loss, {name: float})`` or ``(loss, logs,
             aux)`` with ``aux`` handed to the adversary; the batch is already on the device.
         config: training hyper-parameters.
-        checkpoint_path: final checkpoint (``torch.save`` dict with ``model`` = the weights
-            of the best validation epoch, ``last_model``, ``config``, ``history``, ``extra``).
-        log_path: tidy CSV of losses, columns ``epoch, split, metric, value``.
-        extra_state: stored under ``extra`` in the checkpoint (e.g. target normalisation);
-            tensors and plain types only (:func:`check_plain`, checked before training).
+        outputs: the checkpoint, loss log and TensorBoard files, and what goes into them
+            beyond the training itself (:class:`FitOutputs`).
         adversary: optional discriminator, trained after every model step and stored in
             the checkpoint as ``adversary``.
-        data_key: a fingerprint of the training data (e.g. :func:`neurender.io.checksum`
-            of the input files); a resume file written for other data is not continued.
-        tensorboard: the marker file of the run's TensorBoard folder (its parent), None
-            for no event files; see :mod:`neurender.tensorboard_log`.
-        previews: how the validation previews and their metric are made (none if None).
 
     Returns:
         The loss history as a tidy data frame.
     """
-    check_plain(dict(extra_state or {}), f"extra_state of {checkpoint_path}")
+    checkpoint_path, log_path = outputs.checkpoint, outputs.log
+    train_set, val_set = data.train, data.val
     device = resolve_device(config.device, config.threads)
     run = _start(model, adversary, config, len(train_set), device)
-    key = resume_key(config, model, data_key)
+    key = resume_key(config, model, data.key)
     resume_path = resume_path_for(checkpoint_path)
     load_resume(run, resume_path, key)
-    board = tensorboard_log.TrainingLog(tensorboard, previews, val_set, device, run.epoch + 1)
+    board = tensorboard_log.TrainingLog(
+        outputs.tensorboard, outputs.previews, val_set, device, run.epoch + 1
+    )
     val_loader = (
         DataLoader(val_set, batch_size=config.batch_size, shuffle=False)
         if val_set is not None
@@ -416,7 +461,7 @@ def fit(
         run.epoch = epoch + 1
         _atomic_torch_save(run.state(key), resume_path)
         io.write_csv(log_path, history_frame(run.history))
-    _save_final(run, config, extra_state, Path(checkpoint_path))
+    _save_final(run, config, outputs.extra, checkpoint_path)
     io.write_csv(log_path, history_frame(run.history))
     board.close()
     resume_path.unlink(missing_ok=True)
@@ -425,7 +470,7 @@ def fit(
     return history_frame(run.history)
 
 
-def _save_final(run: _Run, config: TrainConfig, extra_state, path: Path) -> None:
+def _save_final(run: _Run, config: TrainConfig, extra: dict[str, Any], path: Path) -> None:
     """The checkpoint of a finished run: the best epoch's weights (``model``) and the last."""
     config_dict = dataclasses.asdict(config)
     config_dict.pop("device")  # the same run may be evaluated on another device
@@ -436,7 +481,7 @@ def _save_final(run: _Run, config: TrainConfig, extra_state, path: Path) -> None
         "config": config_dict,
         "history": run.history,
         "best_val": run.best_val,
-        "extra": dict(extra_state or {}),
+        "extra": extra,
     }
     if run.adversary is not None:
         final["adversary"] = run.adversary.module.state_dict()

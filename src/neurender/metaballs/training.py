@@ -84,7 +84,8 @@ def train_generator(
 ) -> None:
     """Train one variant's generator (and, when ``gan_weight > 0``, its PatchGAN); write
     its checkpoint and its tidy loss log (``data_key``: the training data's fingerprint,
-    ``tensorboard``: the marker of its event folder; see :func:`neurender.train.fit`).
+    ``tensorboard``: the marker of its event folder; see :class:`neurender.train.FitData`
+    and :class:`~neurender.train.FitOutputs`).
 
     Args:
         files: ``train_dir, train_manifest, train_balls`` and the same for ``val``.
@@ -97,22 +98,24 @@ def train_generator(
     discriminator = build_discriminator(cfg["ndf"], variant) if gan_weight > 0 else None
     train.fit(
         generator,
-        split_dataset(files, "train", variant, cfg["flips"]),
-        split_dataset(files, "val", variant, False),
+        train.FitData(
+            split_dataset(files, "train", variant, cfg["flips"]),
+            split_dataset(files, "val", variant, False),
+            data_key,
+        ),
         generator_loss(cfg["l1_weight"], gan_weight, discriminator),
         train.TrainConfig.from_stage(cfg, threads, betas=(0.5, 0.999)),
-        checkpoint,
-        log_csv,
-        extra_state={
-            "width": cfg["width"],
-            "ngf": cfg["ngf"],
-            "gan_weight": gan_weight,
-            "variant": variant,
-        },
-        adversary=None
-        if discriminator is None
-        else train.Adversary(discriminator, discriminator_loss),
-        data_key=data_key,
-        tensorboard=tensorboard,
-        previews=Previews(preview_images, ssim_metric),
+        train.FitOutputs(
+            checkpoint,
+            log_csv,
+            extra={
+                "width": cfg["width"],
+                "ngf": cfg["ngf"],
+                "gan_weight": gan_weight,
+                "variant": variant,
+            },
+            tensorboard=tensorboard,
+            previews=Previews(preview_images, ssim_metric),
+        ),
+        None if discriminator is None else train.Adversary(discriminator, discriminator_loss),
     )

@@ -85,10 +85,11 @@ def train_variant(
 ) -> NDRModel:
     """Train variant ``name`` on a split's ``train_files`` and ``val_files`` (each ``dir``,
     ``manifest``, ``lighting``); ``data_key`` fingerprints them, ``tensorboard`` is the
-    marker of the run's event folder (see :func:`neurender.train.fit`). ``variant``: the
-    network to train, by default ``VARIANTS[name]``; a study passes its own (an ablation
-    outside the table, stored under ``name``, which :func:`~neurender.ndr.model.load_model`
-    cannot rebuild). Returns the model with the best validation epoch's weights.
+    marker of the run's event folder (see :class:`neurender.train.FitData` and
+    :class:`~neurender.train.FitOutputs`). ``variant``: the network to train, by default
+    ``VARIANTS[name]``; a study passes its own (an ablation outside the table, stored under
+    ``name``, which :func:`~neurender.ndr.model.load_model` cannot rebuild). Returns the
+    model with the best validation epoch's weights.
 
     ``cfg``: ``seed``, ``device``, ``mask_erosion``, ``batch_size``, ``lr``,
     ``lr_schedule``, ``epochs`` (the same for every variant), the variant's
@@ -112,16 +113,16 @@ def train_variant(
         loss_fn, adversary = pix2pix_losses(variant, cfg)
     train.fit(
         model,
-        train_set,
-        val_set,
+        train.FitData(train_set, val_set, data_key),
         loss_fn,
         config,
-        checkpoint,
-        log_csv,
-        extra_state={"variant": name, **arch},
-        adversary=adversary,
-        data_key=data_key,
-        tensorboard=tensorboard,
-        previews=Previews(preview_images, dssim_metric),
+        train.FitOutputs(
+            checkpoint,
+            log_csv,
+            extra={"variant": name, **arch},
+            tensorboard=tensorboard,
+            previews=Previews(preview_images, dssim_metric),
+        ),
+        adversary,
     )
     return model

@@ -47,7 +47,8 @@ def train_deepprt(
 ) -> ResUNet:
     """Train one DeepPRT network (one object, one material) with the shared loop
     (``data_key``: the training data's fingerprint; ``tensorboard``: the marker of its
-    event folder; see :func:`neurender.train.fit`)."""
+    event folder; see :class:`neurender.train.FitData` and
+    :class:`~neurender.train.FitOutputs`)."""
     torch.manual_seed(cfg["seed"])
     norm = Normalisation.fit(train_split, material, residual=cfg["residual_targets"])
     make = lambda s: TensorDataset(  # noqa: E731
@@ -63,23 +64,23 @@ def train_deepprt(
     start = time.perf_counter()
     train.fit(
         model,
-        make(train_split),
-        make(val_split),
+        train.FitData(make(train_split), make(val_split), data_key),
         _l1_loss,
         config,
-        checkpoint,
-        log_csv,
-        extra_state={
-            "normalisation": norm.state(),
-            "widths": list(cfg["widths"]),
-            "blocks": cfg["blocks"],
-            "out_channels": out_channels,
-            "material": material,
-            "parameters": count_parameters(model),
-        },
-        data_key=data_key,
-        tensorboard=tensorboard,
-        previews=Previews(_previews),
+        train.FitOutputs(
+            checkpoint,
+            log_csv,
+            extra={
+                "normalisation": norm.state(),
+                "widths": list(cfg["widths"]),
+                "blocks": cfg["blocks"],
+                "out_channels": out_channels,
+                "material": material,
+                "parameters": count_parameters(model),
+            },
+            tensorboard=tensorboard,
+            previews=Previews(_previews),
+        ),
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
     return model
@@ -164,22 +165,22 @@ def train_local(
     start = time.perf_counter()
     train.fit(
         model,
-        make("train"),
-        make("val"),
+        train.FitData(make("train"), make("val"), data_key),
         _shadowing_loss,
         config,
-        checkpoint,
-        log_csv,
-        extra_state={
-            "local_config": dataclasses.asdict(local_cfg),
-            "glossy_coeffs": None if coeffs is None else torch.from_numpy(coeffs),
-            "light": None if light_k is None else torch.from_numpy(light_k),
-            "material": material,
-            "parameters": count_parameters(model),
-        },
-        data_key=data_key,
-        tensorboard=tensorboard,
-        previews=Previews(_shadowing_previews),
+        train.FitOutputs(
+            checkpoint,
+            log_csv,
+            extra={
+                "local_config": dataclasses.asdict(local_cfg),
+                "glossy_coeffs": None if coeffs is None else torch.from_numpy(coeffs),
+                "light": None if light_k is None else torch.from_numpy(light_k),
+                "material": material,
+                "parameters": count_parameters(model),
+            },
+            tensorboard=tensorboard,
+            previews=Previews(_shadowing_previews),
+        ),
     )
     log.info("trained %s in %.1f s", checkpoint, time.perf_counter() - start)
     return model.eval()
