@@ -52,6 +52,8 @@ BOUNDS = {
 SPLIT = "equal quality"
 #: The metrics of a network's row beside its quality.
 SPEEDUP, REFERENCE_MS = "equal_quality_speedup", "equal_quality_reference_ms"
+#: What names a network's speed-up in :func:`speedups`.
+SPEEDUP_KEYS = ("method", "dataset", "model", "setting", "bound")
 #: The columns of a sweep's scores besides its quality metrics.
 SETTING, MS = "setting", "ms_per_frame"
 
@@ -152,10 +154,10 @@ def table(
 
 def speedups(frame: pd.DataFrame) -> pd.DataFrame:
     """The networks' speed-ups of an equal-quality table (:func:`table`'s rows, of one or
-    more datasets or methods): columns ``method, dataset, model, setting, bound, speedup``,
-    in the table's order."""
+    more datasets or methods): columns :data:`SPEEDUP_KEYS` and ``speedup``, in the
+    table's order."""
     rows = frame[(frame["metric"] == SPEEDUP) & (frame["bound"] != MEASURED)]
-    out = rows[["method", "dataset", "model", "setting", "bound", "value"]]
+    out = rows[[*SPEEDUP_KEYS, "value"]]
     return out.rename(columns={"value": "speedup"}).reset_index(drop=True)
 
 

@@ -182,7 +182,7 @@ def metaballs_targets(inputs: dict, outputs: dict, params: dict, threads: int) -
 
     metrics = io.read_csv(inputs["metrics"], ["model", "metric", "value"])
     timing = io.read_csv(inputs["timing"], ["model", "metric", "value"])
-    columns = ["dataset", "model", "setting", "bound", "metric", "value"]
+    columns = ["method", "dataset", "model", "setting", "bound", "metric", "value"]
     equal = io.read_csv(inputs["equal_quality"], columns)
     table = summary.targets(metrics, timing, equal, params["width"])
     io.write_csv(outputs["targets"], table)
