@@ -133,7 +133,7 @@ def test_the_speed_targets_are_met_only_by_a_pick_or_a_lower_bound():
         networks = {eq.NETWORK: network | {eq.METRIC: target}}
         networks[eq.NETWORK_INT8] = {"ms_per_frame": int8_ms, eq.METRIC: target}
         equal = eq.table(SWEEP, networks, 64)
-        table = summary.targets(metrics, equal, 10.0, 2).set_index("subject")
+        table = summary.targets(metrics, equal).set_index("subject")
         subjects = ["Mitsuba at the training 64 spp", "Mitsuba at equal DSSIM"]
         return table.loc[subjects + [f"{s} (int8 graph)" for s in subjects], "met"]
 

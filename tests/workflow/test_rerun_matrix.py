@@ -298,7 +298,7 @@ READERS: dict[str, set[str]] = {
     "ndr.user_object_defaults.specular": {"ndr_user_objects"},
     "ndr.user_object_defaults.roughness": {"ndr_user_objects"},
     "ndr.user_object_maps": {"ndr_user_objects"},
-    "ndr_model.variants": {"ndr_deploy", "ndr_evaluate", "ndr_summary", "ndr_targets"},
+    "ndr_model.variants": {"ndr_deploy", "ndr_evaluate", "ndr_summary"},
     "ndr_model.widths": {"ndr_train"},
     "ndr_model.sh_hidden": {"ndr_train"},
     "ndr_model.shading_residual": {"ndr_train"},
@@ -318,7 +318,7 @@ READERS: dict[str, set[str]] = {
     "ndr_model.ndf": {"ndr_train"},
     "ndr_model.l1_weight": {"ndr_train"},
     "ndr_model.gan_weight": {"ndr_train"},
-    "ndr_model.threads": {"ndr_targets"},
+    "ndr_model.threads": set(),
     "ndr_model.relight_sample": {"ndr_relight", "ndr_viewer"},
     "ndr_model.relight_turns": {"ndr_relight"},
     "metaballs.width": {
@@ -540,9 +540,10 @@ def nested(key: str, value) -> dict:
 
 
 @contextmanager
-def smoke_dag(change: dict) -> Iterator[Any]:
+def smoke_dag(change: dict, cores: int = 2) -> Iterator[Any]:
     """The Snakemake workflow of the smoke config with ``change`` applied (as ``--config``
-    would), its DAG built for ``results/report.html`` with every job in it.
+    would) on ``cores`` cores, its DAG built for ``results/report.html`` with every job in
+    it.
 
     In-process through Snakemake's API (a DAG in about half a second, where a ``snakemake
     -n`` process takes four); no job runs and nothing is written under ``results/``.
@@ -560,7 +561,7 @@ def smoke_dag(change: dict) -> Iterator[Any]:
     dag_settings = DAGSettings(targets={"results/report.html"}, forceall=True)
     with SnakemakeApi(OutputSettings(quiet={Quietness.ALL})) as api:
         dag_api = api.workflow(
-            resource_settings=ResourceSettings(cores=2),
+            resource_settings=ResourceSettings(cores=cores),
             config_settings=ConfigSettings(configfiles=[ROOT / "config/smoke.yaml"], config=change),
             snakefile=ROOT / "Snakefile",
             workdir=ROOT,
@@ -571,10 +572,10 @@ def smoke_dag(change: dict) -> Iterator[Any]:
         yield workflow
 
 
-def job_params(change: dict) -> dict[str, tuple[str, frozenset]]:
-    """Per output file of the smoke DAG with ``change`` applied: its job's rule and params
-    as Snakemake records them (``persistence._params``)."""
-    with smoke_dag(change) as workflow:
+def job_params(change: dict, cores: int = 2) -> dict[str, tuple[str, frozenset]]:
+    """Per output file of the smoke DAG with ``change`` applied (on ``cores`` cores): its
+    job's rule and params as Snakemake records them (``persistence._params``)."""
+    with smoke_dag(change, cores) as workflow:
         persistence = workflow.persistence
         return {
             str(f): (job.rule.name, frozenset(persistence._params(job)))
@@ -636,6 +637,16 @@ def test_an_edit_reruns_exactly_the_rules_that_read_the_key(matrix):
         if found != READERS[key] | {PROVENANCE}
     }
     assert not wrong, wrong
+
+
+def test_the_core_count_reruns_nothing_and_no_job_reads_a_benchmark_file():
+    """``--cores`` sets jobs' threads (a resource), never their params, so a run on other
+    cores reruns no job (targets included); and no job reads Snakemake's timing files
+    (``results/benchmarks/``), so a job's result never depends on how long others took."""
+    assert job_params({}, cores=1) == job_params({}, cores=2)
+    with smoke_dag({}) as workflow:
+        read = {str(f) for job in workflow.dag.jobs for f in job.input}
+    assert not {f for f in read if f.startswith("results/benchmarks/")}
 
 
 #: Rules that publish a deploy rule's graphs under a second name: a copy, never an export.

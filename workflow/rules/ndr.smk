@@ -192,7 +192,6 @@ rule ndr_targets:
     input:
         metrics="results/ndr/metrics.csv",
         equal_quality="results/ndr/equal_quality.csv",
-        benchmarks=[path for path, _ in ndr_benchmarks()],
     output:
         targets=report(
             "results/ndr/targets.csv",
@@ -209,7 +208,7 @@ rule ndr_targets:
     resources:
         **scheduler_resources("ndr_targets"),
     params:
-        cfg=ndr_targets_params(),
+        cfg={},
     script:
         "../scripts/ndr_targets.py"
 

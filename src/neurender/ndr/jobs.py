@@ -223,17 +223,14 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 
 def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The targets: the test metrics, the speed against Mitsuba (``equal_quality``) and the
-    stage's time from every NDR job's benchmark (its threads in ``params["job_threads"]``)
-    on ``params["cores"]`` cores."""
+    """The targets of the test ``metrics`` and of the speed against Mitsuba and the int8
+    graph's quality (``equal_quality``), :func:`neurender.ndr.summary.targets`."""
     from neurender.ndr import summary
 
-    minutes = summary.stage_minutes(inputs["benchmarks"], params["job_threads"], params["cores"])
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
     columns = ["model", "split", "setting", "bound", "metric", "value"]
     equal = io.read_csv(inputs["equal_quality"], columns)
-    table = summary.targets(metrics, equal, minutes, params["cores"])
-    io.write_csv(outputs["targets"], table)
+    io.write_csv(outputs["targets"], summary.targets(metrics, equal))
 
 
 def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

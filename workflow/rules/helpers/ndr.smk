@@ -259,29 +259,3 @@ def ndr_deploy_params():
     """The variants exported, and the keys of NDR's shipped graph
     (:data:`NDR_SHIPPED_KEYS`, the seed too: a sample's map is drawn again)."""
     return section_keys("ndr", NDR_SHIPPED_KEYS, ("seed",), variants=list(NDR_VARIANTS))
-
-
-def ndr_benchmarks():
-    """Every NDR job's benchmark file and its threads: the stage's measured time."""
-    train_threads = config["ndr_model"]["threads"]
-    return (
-        [(f"results/benchmarks/ndr_data/{s}.tsv", 1) for s in ndr_splits()]
-        + [
-            (f"results/benchmarks/ndr_train/{v}.tsv", train_threads)
-            for v in NDR_VARIANTS
-        ]
-        + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
-        + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_deploy/ndr_deploy.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_equal_quality/ndr_equal_quality.tsv", 1)]
-    )
-
-
-def ndr_targets_params():
-    """The threads of every benchmarked job (in ``ndr_benchmarks`` order) and the cores
-    the stage time is stated for."""
-    return {
-        "job_threads": [threads for _, threads in ndr_benchmarks()],
-        "cores": workflow.cores,
-    }
