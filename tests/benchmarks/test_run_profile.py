@@ -90,3 +90,21 @@ def test_main_writes_the_tidy_csv_and_the_sidecar(results, tmp_path):
 def test_no_benchmark_files_is_an_error_naming_the_folder(tmp_path):
     with pytest.raises(FileNotFoundError, match=str(tmp_path / "benchmarks")):
         profile.job_rows(tmp_path)
+
+
+def test_the_ndr_stage_is_the_sum_of_every_ndr_jobs_minutes(tmp_path):
+    """NDR's stage time, no target of its own (``results/ndr/targets.csv`` reads only
+    results), is this profile's: every NDR rule's jobs under the stage ``NDR``."""
+    from neurender.ndr.method import METHOD, STAGE
+
+    out = tmp_path / "results"
+    for rule in METHOD.rules:
+        _benchmark(out, rule, rule, 90.0, 60.0, 500.0)
+    _benchmark(out, "ndr_train", "pix2pix", 90.0, 60.0, 700.0)
+    table = profile.by_stage(profile.job_rows(out))
+    assert list(table.index) == [STAGE]
+    ndr = table.loc[STAGE]
+    assert ndr.jobs == len(METHOD.rules) + 1
+    assert ndr.wall_min == pytest.approx(1.5 * (len(METHOD.rules) + 1))
+    assert ndr.cpu_min == pytest.approx(len(METHOD.rules) + 1)
+    assert ndr.max_rss_mb == 700.0

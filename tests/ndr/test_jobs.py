@@ -94,24 +94,26 @@ def test_relighting_scores_ndr_and_the_shading_input_at_every_turn(rendered):
     assert (table[table.metric == "dssim_I_R"].value.between(0, 1)).all()
 
 
-def test_targets_read_the_metrics_equal_quality_table_and_stage_time(evaluated, tmp_path):
+def test_targets_read_the_metrics_and_equal_quality_tables_only(evaluated, tmp_path):
+    """The job's table is the summary's targets of its two inputs, whatever its params and
+    threads (it reads no benchmark file and no core count)."""
     equal = pd.DataFrame(
-        columns=["dataset", "model", "split", "setting", "bound", "metric", "value"]
+        columns=["method", "dataset", "model", "split", "setting", "bound", "metric", "value"]
     )
     io.write_csv(tmp_path / "equal.csv", equal)
-    benchmark = tmp_path / "b.tsv"
-    benchmark.write_text("s\th:m:s\n60.0\t0:01:00\n")
     inputs = {"metrics": evaluated["metrics"], "equal_quality": str(tmp_path / "equal.csv")}
-    inputs["benchmarks"] = [str(benchmark)] * 2
-    params = {"job_threads": [2, 1], "cores": 2}
-    jobs.ndr_targets(inputs, {"targets": str(tmp_path / "targets.csv")}, params, 1)
+    jobs.ndr_targets(inputs, {"targets": str(tmp_path / "targets.csv")}, {}, 2)
     metrics = io.read_csv(evaluated["metrics"])
-    expected = summary.targets(metrics, equal, 1.5, 2)  # (60 s x 2 + 60 s x 1) / 2 cores
+    expected = summary.targets(metrics, equal)
     pd.testing.assert_frame_equal(
         io.read_csv(tmp_path / "targets.csv"), expected, check_dtype=False
     )
-    stage = expected[expected.check.str.startswith("whole NDR stage")]
-    assert stage.measured.tolist() == [1.5]
+    # The shading input's and the noise floor's rows: NDR's DSSIM against theirs.
+    ndr = metrics.query("model == 'ndr' and metric == 'dssim_I_R'").value.iloc[0]
+    floor = metrics.query("model == @NOISE_FLOOR and metric == 'dssim_I_R'").value.iloc[0]
+    row = expected.set_index("subject").loc[NOISE_FLOOR]
+    assert row.measured == pytest.approx(floor / ndr) and row.met == (floor < ndr)
+    assert "stage" not in set(expected.subject)
 
 
 def test_the_data_summary_counts_each_splits_samples_and_runs_the_furnace_checks(rendered):

@@ -28,13 +28,6 @@ def _equal(int8_dssim: float = 0.041) -> pd.DataFrame:
     return pd.concat([eq.table(scores, networks, 64), graphs])
 
 
-def test_stage_minutes_weigh_each_job_by_its_threads(tmp_path):
-    (tmp_path / "b.tsv").write_text("s\th:m:s\n600.0\t0:10:00\n")
-    # Two jobs of 600 s, on 2 threads and on 1: 15 min of wall time on 2 cores.
-    minutes = summary.stage_minutes([str(tmp_path / "b.tsv")] * 2, [2, 1], 2)
-    assert minutes == 15
-
-
 def test_targets_state_met_and_missed():
     metrics = _metrics(
         [
@@ -45,14 +38,13 @@ def test_targets_state_met_and_missed():
             ("complex", "noise floor", 0.01),
         ]
     )
-    table = summary.targets(metrics, _equal(), minutes=15.0, cores=2)
+    table = summary.targets(metrics, _equal())
     assert list(table.columns) == list(TARGET_COLUMNS)
     met = table.set_index("subject")["met"]
     assert not met["ndr"]  # 0.05 > 0.75 * 0.06
     assert met["no_intrinsic"].tolist() == [True, True]  # beaten by NDR, and >= 1.2 x NDR
     assert not met["pix2pix"]
     assert met["noise floor"]
-    assert met["stage"]  # 15 min <= 25
     assert met["Mitsuba at the training 64 spp"] and met["Mitsuba at equal DSSIM"]
     assert met["Mitsuba at the training 64 spp (int8 graph)"]
     assert met["int8 graph (complex)"]  # 0.041 <= 1.05 x 0.040
@@ -62,17 +54,18 @@ def test_targets_state_met_and_missed():
 
 def test_an_int8_graph_that_costs_quality_misses():
     metrics = _metrics([("complex", "ndr", 0.05), ("complex", "shading_input", 0.1)])
-    table = summary.targets(metrics, _equal(0.045), minutes=15.0, cores=2).set_index("subject")
+    table = summary.targets(metrics, _equal(0.045)).set_index("subject")
     assert not table.loc["int8 graph (complex)", "met"]
     assert table.loc["int8 graph (complex)", "measured"] == pytest.approx(0.045 / 0.040)
 
 
-def test_missed_stage_budget():
+def test_half_the_shading_inputs_dssim_meets_the_target_and_no_stage_time_is_one():
     metrics = _metrics([("complex", "ndr", 0.05), ("complex", "shading_input", 0.1)])
-    table = summary.targets(metrics, _equal(), minutes=30.0, cores=2).set_index("subject")
+    table = summary.targets(metrics, _equal()).set_index("subject")
     assert table.loc["ndr", "met"]  # 50 % below the shading input
     assert table.loc["ndr", "measured"] == 0.5
-    assert not table.loc["stage", "met"]
+    # The stage's time is a run's profile (benchmarks/run_profile.py), not a target.
+    assert "stage" not in table.index
 
 
 def test_timing_table_names_the_coarse_shading_of_the_training_data(tmp_path):

@@ -13,8 +13,11 @@ under ``results/``.
 from __future__ import annotations
 
 import multiprocessing
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -36,6 +39,7 @@ READERS: dict[str, set[str]] = {
         "metaballs_train",
         "metaballs_viewer",
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_summary",
@@ -173,6 +177,7 @@ READERS: dict[str, set[str]] = {
     "prt_model.shipped": {"prt_model_summary", "prt_ship"},
     "ndr.width": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_summary",
@@ -188,6 +193,7 @@ READERS: dict[str, set[str]] = {
     "ndr.diffuse_samples.test": {"ndr_data"},
     "ndr.primitives": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -195,6 +201,7 @@ READERS: dict[str, set[str]] = {
     },
     "ndr.edge_length": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -202,14 +209,23 @@ READERS: dict[str, set[str]] = {
     },
     "ndr.camera_distance": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
         "ndr_viewer",
     },
-    "ndr.fov": {"ndr_data", "ndr_equal_quality", "ndr_relight", "ndr_user_objects", "ndr_viewer"},
+    "ndr.fov": {
+        "ndr_data",
+        "ndr_deploy",
+        "ndr_equal_quality",
+        "ndr_relight",
+        "ndr_user_objects",
+        "ndr_viewer",
+    },
     "ndr.environment_height": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -217,6 +233,7 @@ READERS: dict[str, set[str]] = {
     },
     "ndr.coarse_height": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_summary",
@@ -250,6 +267,7 @@ READERS: dict[str, set[str]] = {
     "ndr.fixed_probe": {"ndr_data"},
     "ndr.user_probes_dir": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -257,6 +275,7 @@ READERS: dict[str, set[str]] = {
     },
     "ndr.user_probe_fraction": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -267,6 +286,7 @@ READERS: dict[str, set[str]] = {
     "ndr.equal_quality_samples": {"ndr_equal_quality"},
     "ndr.small_sun_fraction": {
         "ndr_data",
+        "ndr_deploy",
         "ndr_equal_quality",
         "ndr_relight",
         "ndr_user_objects",
@@ -278,7 +298,7 @@ READERS: dict[str, set[str]] = {
     "ndr.user_object_defaults.specular": {"ndr_user_objects"},
     "ndr.user_object_defaults.roughness": {"ndr_user_objects"},
     "ndr.user_object_maps": {"ndr_user_objects"},
-    "ndr_model.variants": {"ndr_deploy", "ndr_evaluate", "ndr_summary", "ndr_targets"},
+    "ndr_model.variants": {"ndr_deploy", "ndr_evaluate", "ndr_summary"},
     "ndr_model.widths": {"ndr_train"},
     "ndr_model.sh_hidden": {"ndr_train"},
     "ndr_model.shading_residual": {"ndr_train"},
@@ -298,7 +318,7 @@ READERS: dict[str, set[str]] = {
     "ndr_model.ndf": {"ndr_train"},
     "ndr_model.l1_weight": {"ndr_train"},
     "ndr_model.gan_weight": {"ndr_train"},
-    "ndr_model.threads": {"ndr_targets"},
+    "ndr_model.threads": set(),
     "ndr_model.relight_sample": {"ndr_relight", "ndr_viewer"},
     "ndr_model.relight_turns": {"ndr_relight"},
     "metaballs.width": {
@@ -519,9 +539,11 @@ def nested(key: str, value) -> dict:
     return out
 
 
-def job_params(change: dict) -> dict[str, tuple[str, frozenset]]:
-    """Per output file of the smoke DAG with ``change`` applied (as ``--config`` would):
-    its job's rule and params as Snakemake records them (``persistence._params``).
+@contextmanager
+def smoke_dag(change: dict, cores: int = 2) -> Iterator[Any]:
+    """The Snakemake workflow of the smoke config with ``change`` applied (as ``--config``
+    would) on ``cores`` cores, its DAG built for ``results/report.html`` with every job in
+    it.
 
     In-process through Snakemake's API (a DAG in about half a second, where a ``snakemake
     -n`` process takes four); no job runs and nothing is written under ``results/``.
@@ -539,7 +561,7 @@ def job_params(change: dict) -> dict[str, tuple[str, frozenset]]:
     dag_settings = DAGSettings(targets={"results/report.html"}, forceall=True)
     with SnakemakeApi(OutputSettings(quiet={Quietness.ALL})) as api:
         dag_api = api.workflow(
-            resource_settings=ResourceSettings(cores=2),
+            resource_settings=ResourceSettings(cores=cores),
             config_settings=ConfigSettings(configfiles=[ROOT / "config/smoke.yaml"], config=change),
             snakefile=ROOT / "Snakefile",
             workdir=ROOT,
@@ -547,6 +569,13 @@ def job_params(change: dict) -> dict[str, tuple[str, frozenset]]:
         workflow = dag_api.workflow_api._workflow
         workflow._prepare_dag(forceall=False, ignore_incomplete=False, lock_warn_only=True)
         workflow._build_dag()
+        yield workflow
+
+
+def job_params(change: dict, cores: int = 2) -> dict[str, tuple[str, frozenset]]:
+    """Per output file of the smoke DAG with ``change`` applied (on ``cores`` cores): its
+    job's rule and params as Snakemake records them (``persistence._params``)."""
+    with smoke_dag(change, cores) as workflow:
         persistence = workflow.persistence
         return {
             str(f): (job.rule.name, frozenset(persistence._params(job)))
@@ -610,10 +639,40 @@ def test_an_edit_reruns_exactly_the_rules_that_read_the_key(matrix):
     assert not wrong, wrong
 
 
-def test_no_training_rule_writes_a_shipped_graph():
-    """A network becomes the graph a renderer ships (ONNX) in a deploy rule, never in the
-    rule that trains it, so that a change to the export reruns the deploy job and what
-    reads the graphs, not the training."""
-    made_by = {f: rule for f, (rule, _) in job_params({}).items() if f.endswith(".onnx")}
-    assert "prt_deploy" in made_by.values()
-    assert not {f: rule for f, rule in made_by.items() if rule.endswith("_train")}
+def test_the_core_count_reruns_nothing_and_no_job_reads_a_benchmark_file():
+    """``--cores`` sets jobs' threads (a resource), never their params, so a run on other
+    cores reruns no job (targets included); and no job reads Snakemake's timing files
+    (``results/benchmarks/``), so a job's result never depends on how long others took."""
+    assert job_params({}, cores=1) == job_params({}, cores=2)
+    with smoke_dag({}) as workflow:
+        read = {str(f) for job in workflow.dag.jobs for f in job.input}
+    assert not {f for f in read if f.startswith("results/benchmarks/")}
+
+
+#: Rules that publish a deploy rule's graphs under a second name: a copy, never an export.
+COPIES = {"prt_ship"}
+
+
+def test_every_shipped_graph_is_written_by_a_deploy_rule():
+    """A network becomes the graph a renderer ships (ONNX) in its method's deploy rule
+    (``<method>_deploy``), never in the rule that trains, evaluates or times it, so that a
+    change to the export reruns the deploy job and what reads the graphs, not the training
+    or the renders beside them; a rule of :data:`COPIES` only copies a deploy rule's
+    graphs (its job is :func:`neurender.jobs.copy_files`)."""
+    with smoke_dag({}) as workflow:
+        jobs = [
+            (job.rule.name, [str(f) for f in job.input], [str(f) for f in job.output])
+            for job in workflow.dag.jobs
+        ]
+    made_by = {f: rule for rule, _, outputs in jobs for f in outputs if f.endswith(".onnx")}
+    assert {"prt_deploy", "ndr_deploy", "metaballs_deploy"} <= set(made_by.values())
+    assert made_by["results/ndr/onnx/ndr_shipped.onnx"] == "ndr_deploy"
+    assert made_by["results/ndr/onnx/ndr_shipped_int8.onnx"] == "ndr_deploy"
+    elsewhere = {f: r for f, r in made_by.items() if not r.endswith("_deploy") and r not in COPIES}
+    assert not elsewhere, elsewhere
+    for rule, inputs, outputs in jobs:
+        if rule in COPIES:
+            assert "copy_files" in (ROOT / f"workflow/scripts/{rule}.py").read_text()
+            graphs = [f for f in inputs if f.endswith(".onnx")]
+            assert len(graphs) == len([f for f in outputs if f.endswith(".onnx")]) > 0
+            assert all(made_by[f].endswith("_deploy") for f in graphs), (rule, graphs)

@@ -138,6 +138,8 @@ rule ndr_deploy:
     output:
         onnx=expand("results/ndr/onnx/{variant}.onnx", variant=NDR_VARIANTS),
         table="results/ndr/deployment.csv",
+        shipped="results/ndr/onnx/ndr_shipped.onnx",
+        shipped_int8="results/ndr/onnx/ndr_shipped_int8.onnx",
     log:
         "results/logs/ndr_deploy/ndr_deploy.log",
     benchmark:
@@ -158,6 +160,8 @@ rule ndr_equal_quality:
         unpack(ndr_equal_quality_inputs),
         checkpoint="results/ndr/models/ndr.pt",
         samples="results/ndr/metrics_samples.csv",
+        graph="results/ndr/onnx/ndr_shipped.onnx",
+        graph_int8="results/ndr/onnx/ndr_shipped_int8.onnx",
     output:
         table=report(
             "results/ndr/equal_quality.csv",
@@ -169,8 +173,6 @@ rule ndr_equal_quality:
             category="NDR",
             labels={"figure": "equal quality"},
         ),
-        graph="results/ndr/onnx/ndr_shipped.onnx",
-        graph_int8="results/ndr/onnx/ndr_shipped_int8.onnx",
     log:
         "results/logs/ndr_equal_quality/ndr_equal_quality.log",
     benchmark:
@@ -190,7 +192,6 @@ rule ndr_targets:
     input:
         metrics="results/ndr/metrics.csv",
         equal_quality="results/ndr/equal_quality.csv",
-        benchmarks=[path for path, _ in ndr_benchmarks()],
     output:
         targets=report(
             "results/ndr/targets.csv",
@@ -207,7 +208,7 @@ rule ndr_targets:
     resources:
         **scheduler_resources("ndr_targets"),
     params:
-        cfg=ndr_targets_params(),
+        cfg={},
     script:
         "../scripts/ndr_targets.py"
 

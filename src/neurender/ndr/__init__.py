@@ -8,7 +8,8 @@ scene and its buffers; the coarse shading importance-sampled or prefiltered), ``
 and ``pool`` (a split's samples), ``buffers`` (their file format and loading),
 ``variants`` and ``model`` (the networks), ``training``, ``evaluate`` (scores),
 ``deploy`` and ``shipped`` (the ONNX files: the networks; shading and network in one
-graph), ``equal_quality`` (NDR against Mitsuba's sample counts), ``relight``,
+graph, in float32 and int8), ``graph_scores`` (that graph's inputs and scores),
+``equal_quality`` (NDR against Mitsuba's sample counts), ``relight``,
 ``furnace``, ``summary`` (statistics, timings, targets),
 ``user_objects`` (your meshes; :mod:`neurender.asset_files` finds the files they name),
 ``figures`` and ``jobs`` (one function per rule of ``workflow/rules/ndr.smk``).
@@ -42,7 +43,7 @@ TRAINED_ON = {"complex": "complex", "diffuse": "diffuse", "sunlit": "complex"}
 EQUAL_QUALITY_REPEATS = 3
 
 #: Training samples whose activations set the int8 shipped graph's ranges (fewer where the
-#: split has fewer; :mod:`neurender.ndr.graph_scores`).
+#: split has fewer; :mod:`neurender.ndr.deploy`).
 CALIBRATION_SAMPLES = 16
 
 #: The variants trained and tested on the diffuse, fixed-illumination data.

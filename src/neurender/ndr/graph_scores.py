@@ -1,28 +1,24 @@
-"""The shipped one-graph NDR (:mod:`neurender.ndr.shipped`) as files ONNX Runtime runs, in
-float32 and in int8, and scored on whole test splits as the evaluation scores the networks.
+"""The shipped one-graph NDR's inputs (:mod:`neurender.ndr.shipped`), and its ONNX files
+(float32 and int8, written by :mod:`neurender.ndr.deploy`) scored on whole test splits as
+the evaluation scores the networks.
 
 A sample's graph inputs are remade from the split's stored G-buffers and its map, which
 :func:`neurender.ndr.data.sample_scene` draws again from the sample's seed (the map's SH,
-prefiltered copies and lights, made once per map as a renderer would). The int8 graph is
-the float32 file with its convolutions (and the ReLUs and upsamplings between them) in
-int8 (:func:`neurender.nn.inference.quantize_convolutions`), their activation ranges
-calibrated on the first :data:`CALIBRATION_SAMPLES` training samples, never on a test
-sample. Scores: DSSIM and L2 of ``I_R``, Reinhard tone-mapped, within the eroded mask,
-against the clean references (:func:`neurender.ndr.evaluate.score`).
+prefiltered copies and lights, made once per map as a renderer would). Scores: DSSIM and
+L2 of ``I_R``, Reinhard tone-mapped, within the eroded mask, against the clean references
+(:func:`neurender.ndr.evaluate.score`).
 """
 
 from __future__ import annotations
 
-import copy
-
 import torch
 
-from neurender.ndr import CALIBRATION_SAMPLES, data, environments, prefiltered
+from neurender.ndr import data, environments, prefiltered
 from neurender.ndr.buffers import NDRDataset, erode
 from neurender.ndr.evaluate import score
 from neurender.ndr.model import NDRModel, compose
-from neurender.ndr.shipped import DYNAMIC_AXES, INPUTS, ShippedNDR, gbuffer_groups
-from neurender.nn.inference import OnnxNetwork, export_onnx, quantize_convolutions
+from neurender.ndr.shipped import gbuffer_groups
+from neurender.nn.inference import OnnxNetwork
 
 #: Samples per ONNX Runtime call when a split is scored.
 BATCH = 8
@@ -44,30 +40,6 @@ def graph_inputs(
     light = prefiltered.lighting(env, small)
     coefficients = light.coefficients.reshape(1, -1)
     return tuple(x.float() for x in (gbuffers, coefficients, *(v[None] for v in light[1:])))
-
-
-def export_float32(cfg: dict, model: NDRModel, test: NDRDataset, path: str) -> float:
-    """Write ``model`` with the prefiltered coarse shading as one ONNX graph (G-buffers, SH,
-    maps and lights in, ``I_R`` out), checked against PyTorch on the first sample of the
-    test split ``test`` (sent as a batch of two copies); the largest difference."""
-    cpu = copy.deepcopy(model).cpu().eval()  # the model may stay on the GPU for its timing
-    shipped = ShippedNDR(cpu, cfg["camera_distance"], cfg["fov"], cfg["width"])
-    inputs = graph_inputs(cfg, cpu, "test", 0, test[0])
-    pair = tuple(torch.cat([t, t]) for t in inputs)  # a batch of one would fix the batch axis
-    return export_onnx(
-        shipped, pair, path, atol=1e-3, rtol=1e-4, input_names=INPUTS, dynamic_axes=DYNAMIC_AXES
-    )
-
-
-def export_int8(cfg: dict, model: NDRModel, train: NDRDataset, source: str, path: str) -> None:
-    """The float32 graph ``source`` with its convolutions int8, calibrated on the first
-    :data:`CALIBRATION_SAMPLES` samples of the training split ``train`` (see the module
-    docstring), written to ``path``."""
-    feeds = []
-    for i in range(min(CALIBRATION_SAMPLES, len(train))):
-        inputs = graph_inputs(cfg, model, "train", i, train[i])
-        feeds.append({name: x.numpy() for name, x in zip(INPUTS, inputs, strict=True)})
-    quantize_convolutions(source, path, feeds)
 
 
 def predict(

@@ -123,7 +123,17 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     ``threads`` threads (:mod:`neurender.ndr.deploy`); one row per variant in ``table``
     (:mod:`neurender.deployment`). One job for all variants: their times are taken back to
     back under the same load, and re-exporting all of them costs little beside retraining
-    the one variant that triggers it."""
+    the one variant that triggers it.
+
+    NDR (``checkpoint_ndr``) also as the shipped one-graph renderer, its prefiltered coarse
+    shading and network in one file: in float32 (``shipped``, checked against PyTorch on
+    the first test sample, :func:`neurender.ndr.deploy.export_shipped`) and in int8
+    (``shipped_int8``, calibrated on the first training samples). Its inputs are remade
+    from a sample's stored G-buffers and its map, drawn again from ``params``' scene keys
+    (``seed``, ``primitives``, ``edge_length``, ``environment_height``, ``user_probes_dir``
+    with the user's maps, ``user_probe_fraction``, ``small_sun_fraction``,
+    ``coarse_height``); its camera and width are ``camera_distance``, ``fov`` and
+    ``width``."""
     import torch
 
     from neurender.deployment import deployment_table
@@ -141,15 +151,21 @@ def ndr_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
         model = load_model(inputs[f"checkpoint_{variant}"], cpu)
         rows.append(deploy.deploy_variant(variant, model, examples[split], onnx_out, threads))
     io.write_csv(outputs["table"], deployment_table(rows))
+    ndr = load_model(inputs["checkpoint_ndr"], cpu)
+    test = NDRDataset.from_files(_split_files(inputs, "test"), 0, 1)  # the stored masks
+    error = deploy.export_shipped(params, ndr, test, outputs["shipped"])
+    log.info("shipped graph %s: max |ONNX - PyTorch| %.3g", outputs["shipped"], error)
+    train = NDRDataset.from_files(_split_files(inputs, "train"), 0, CALIBRATION_SAMPLES)
+    deploy.export_shipped_int8(params, ndr, train, outputs["shipped"], outputs["shipped_int8"])
 
 
 def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """NDR (``checkpoint``) against Mitsuba at every sample count of ``equal_quality_spp``
     and the training ``spp`` on the first ``equal_quality_samples`` test samples
     (:mod:`neurender.ndr.equal_quality`), Mitsuba and NDR timed on ``threads`` threads in
-    this process. The shipped one-graph NDR (coarse shading and network in one ONNX file)
-    in float32 (``graph``) and in int8 (``graph_int8``, calibrated on the first training
-    samples), each scored on every test split of the complex-trained networks
+    this process. The shipped one-graph NDR (coarse shading and network in one ONNX file,
+    written by :func:`ndr_deploy`) in float32 (``graph``) and in int8 (``graph_int8``),
+    each timed and scored on every test split of the complex-trained networks
     (:mod:`neurender.ndr.graph_scores`). NDR's DSSIM: the evaluation's per-sample
     ``samples`` for the float32 network, the int8 graph's own scores for it; Mitsuba's
     against the test split's references. The table and the figure."""
@@ -171,10 +187,7 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
             f"has {len(test)} samples"
         )
     model = load_model(inputs["checkpoint"], device)
-    graphs = {"float32": outputs["graph"], "int8": outputs["graph_int8"]}
-    graph_scores.export_float32(params, model, test, graphs["float32"])
-    train = NDRDataset.from_files(_split_files(inputs, "train"), 0, CALIBRATION_SAMPLES)
-    graph_scores.export_int8(params, model, train, graphs["float32"], graphs["int8"])
+    graphs = {"float32": inputs["graph"], "int8": inputs["graph_int8"]}
     names = {equal_quality.NETWORK: "float32", equal_quality.NETWORK_INT8: "int8"}
     sessions = {name: OnnxNetwork(graphs[precision], threads) for name, precision in names.items()}
     scored = {}
@@ -210,17 +223,14 @@ def ndr_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 
 def ndr_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The targets: the test metrics, the speed against Mitsuba (``equal_quality``) and the
-    stage's time from every NDR job's benchmark (its threads in ``params["job_threads"]``)
-    on ``params["cores"]`` cores."""
+    """The targets of the test ``metrics`` and of the speed against Mitsuba and the int8
+    graph's quality (``equal_quality``), :func:`neurender.ndr.summary.targets`."""
     from neurender.ndr import summary
 
-    minutes = summary.stage_minutes(inputs["benchmarks"], params["job_threads"], params["cores"])
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
-    columns = ["model", "split", "setting", "bound", "metric", "value"]
+    columns = ["method", "dataset", "model", "split", "setting", "bound", "metric", "value"]
     equal = io.read_csv(inputs["equal_quality"], columns)
-    table = summary.targets(metrics, equal, minutes, params["cores"])
-    io.write_csv(outputs["targets"], table)
+    io.write_csv(outputs["targets"], summary.targets(metrics, equal))
 
 
 def ndr_relight(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

@@ -121,13 +121,13 @@ def _viewer(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     """Mitsuba samples of the sweep (each render timed, after one uncounted call) and the
     coarse shading's per timed NDR frame, on its test samples; the two shipped graphs on
-    the whole test splits and the int8 graph's calibration samples."""
+    the whole test splits."""
     ndr = cfg["ndr"]
     w = ndr["width"]
     spp = sum({*ndr["equal_quality_spp"], ndr["spp"]}) + _coarse_samples(ndr)
     calls = EQUAL_QUALITY_REPEATS + 1
     sweep = ndr["equal_quality_samples"] * calls * w * w * spp
-    graphs = ndr["samples"]["test"] + ndr["sunlit_samples"] + CALIBRATION_SAMPLES
+    graphs = ndr["samples"]["test"] + ndr["sunlit_samples"]
     scored = 2 * graphs * w * w * unet_work(cfg["ndr_model"]["widths"])
     return (sweep + scored) / 1e6, w * w / 1e3
 
@@ -139,10 +139,14 @@ def _summary(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
 
 
 def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
-    """Per network: an export, and 2 x 23 timed frames."""
+    """Per network: an export, and 2 x 23 timed frames (``frame``: the 46 of them); NDR's
+    shipped graph: two more exports (float32, int8) and the frames its int8 calibration
+    runs."""
     nm, w = cfg["ndr_model"], cfg["ndr"]["width"]
     networks = len({"ndr", *nm["variants"]})
-    return networks * (1 + w * w * unet_work(nm["widths"]) / 1e3), w * w / 1e3
+    frame = w * w * unet_work(nm["widths"]) / 1e3
+    calibration = CALIBRATION_SAMPLES / (2 * 23) * frame
+    return networks * (1 + frame) + 2 + calibration, w * w / 1e3
 
 
 def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:

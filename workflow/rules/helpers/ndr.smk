@@ -33,6 +33,18 @@ NDR_KIND_KEYS = {
     "sunlit": (),
 }
 NDR_TEST_KEYS = ("reference_spp",)
+#: ndr keys of NDR's shipped graph (``ndr_deploy``): those that draw a complex sample's
+#: object and map again, the coarse map's height, the camera and the width.
+NDR_SHIPPED_KEYS = (
+    "primitives",
+    "edge_length",
+    "environment_height",
+    *NDR_KIND_KEYS["complex"],
+    "coarse_height",
+    "camera_distance",
+    "fov",
+    "width",
+)
 #: ndr_model keys every training reads; an architecture's own (the pix2pix GAN's too).
 NDR_TRAIN_KEYS = ("mask_erosion", "epochs", "batch_size", "lr", "lr_schedule")
 NDR_ARCH_KEYS = {
@@ -208,19 +220,22 @@ def ndr_evaluate_inputs(wildcards):
 
 def ndr_deploy_inputs(wildcards):
     """Every variant's checkpoint and the test split of each kind of data they train on
-    (an export is checked on its first samples)."""
+    (an export is checked on its first samples); the training split (the int8 shipped
+    graph's calibration) and the user's maps (they light some of the samples whose
+    graph inputs are remade)."""
     inputs = {f"checkpoint_{v}": f"results/ndr/models/{v}.pt" for v in NDR_VARIANTS}
     for v in NDR_VARIANTS:
         split = "diffuse_test" if v in NDR_DIFFUSE_VARIANTS else "test"
         inputs.update({f"{split}_{k}": p for k, p in ndr_split_files(split).items()})
-    return inputs
+    inputs.update({f"train_{k}": p for k, p in ndr_split_files("train").items()})
+    return {**ndr_user_probe_files(wildcards), **inputs}
 
 
 def ndr_equal_quality_inputs(wildcards):
     """The test split (its samples are rendered again), the real-world-like test split
-    where it is made (the shipped graphs are scored on both), the training split (the
-    int8 graph's calibration) and the user's maps (they light some of them)."""
-    splits = ["train", "test"] + [s for s in ndr_splits() if s == NDR_SUNLIT_SPLIT]
+    where it is made (the shipped graphs are scored on both) and the user's maps (they
+    light some of them)."""
+    splits = ["test"] + [s for s in ndr_splits() if s == NDR_SUNLIT_SPLIT]
     files = {
         f"{split}_{k}": p for split in splits for k, p in ndr_split_files(split).items()
     }
@@ -241,30 +256,6 @@ def ndr_equal_quality_params():
 
 
 def ndr_deploy_params():
-    return section_keys("ndr_model", (), variants=list(NDR_VARIANTS))
-
-
-def ndr_benchmarks():
-    """Every NDR job's benchmark file and its threads: the stage's measured time."""
-    train_threads = config["ndr_model"]["threads"]
-    return (
-        [(f"results/benchmarks/ndr_data/{s}.tsv", 1) for s in ndr_splits()]
-        + [
-            (f"results/benchmarks/ndr_train/{v}.tsv", train_threads)
-            for v in NDR_VARIANTS
-        ]
-        + [("results/benchmarks/ndr_summary/ndr_summary.tsv", 1)]
-        + [("results/benchmarks/ndr_evaluate/ndr_evaluate.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_relight/ndr_relight.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_deploy/ndr_deploy.tsv", workflow.cores)]
-        + [("results/benchmarks/ndr_equal_quality/ndr_equal_quality.tsv", 1)]
-    )
-
-
-def ndr_targets_params():
-    """The threads of every benchmarked job (in ``ndr_benchmarks`` order) and the cores
-    the stage time is stated for."""
-    return {
-        "job_threads": [threads for _, threads in ndr_benchmarks()],
-        "cores": workflow.cores,
-    }
+    """The variants exported, and the keys of NDR's shipped graph
+    (:data:`NDR_SHIPPED_KEYS`, the seed too: a sample's map is drawn again)."""
+    return section_keys("ndr", NDR_SHIPPED_KEYS, ("seed",), variants=list(NDR_VARIANTS))
