@@ -61,7 +61,9 @@ def test_the_scale_job_measures_every_renderer_at_every_count_and_width(shipped,
     equal = io.read_csv(outputs["equal_quality"])
     assert len(equal) == len(VARIANTS) * 2 * 2 * len({r for r, _ in renderers})
     exact = equal[equal.renderer == scale.EXACT]
-    assert not exact.bound.any()  # the exact renderer reaches any network's quality
+    # The exact renderer reaches any network's quality with its one setting: the fastest
+    # of its sweep, so an upper bound (a cheaper exact render might reach it too).
+    assert set(exact.bound) == {"upper bound"}
     assert (equal.speedup > 0).all()
     assert Image.open(outputs["figure"]).size[0] > 0
 
