@@ -402,7 +402,9 @@ rule prt_equal_quality:
 rule prt_model_summary:
     input:
         metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
-        equal_quality=expand("results/prt/{object}/equal_quality.csv", object=PRT_OBJECTS),
+        equal_quality=expand(
+            "results/prt/{object}/equal_quality.csv", object=PRT_OBJECTS
+        ),
         deployment=expand("results/prt/{object}/deployment.csv", object=PRT_OBJECTS)
         + expand("results/prt/{x}/experiment_deployment.csv", x=PRT_EXPERIMENTS),
         checkpoints=prt_variant_files("pt", PRT_OBJECTS),
