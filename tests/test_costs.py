@@ -116,6 +116,19 @@ def test_check_flags_stages_outside_the_factor(tmp_path):
     assert result.loc["y", "ratio"] == pytest.approx(9.0)
 
 
+def test_check_accepts_a_stage_of_a_few_seconds_whatever_the_ratio(tmp_path):
+    bench = tmp_path / "results/benchmarks"
+    bench.mkdir(parents=True)
+    pd.DataFrame({"s": [4.65], "max_rss": [100.0]}).to_csv(bench / "a.tsv", sep="\t", index=False)
+    table = pd.DataFrame(
+        {"stage": ["x"], "benchmark": ["results/benchmarks/a.tsv"], "seconds": [1.31]}
+    )
+    result = plan.check(table, tmp_path / "results", factor=3.0, slack_s=10.0)
+    assert result.loc["x", "ratio"] < 1 / 3 and bool(result.loc["x", "within_factor"])
+    strict = plan.check(table, tmp_path / "results", factor=3.0, slack_s=3.0)
+    assert not bool(strict.loc["x", "within_factor"])
+
+
 def test_the_profiles_parse_and_the_slurm_one_names_the_executor():
     slurm = yaml.safe_load((ROOT / "profiles/slurm/config.yaml").read_text())
     assert slurm["executor"] == "slurm"
