@@ -13,7 +13,7 @@ from __future__ import annotations
 import pandas as pd
 
 from neurender.metaballs.method import METHOD as METABALLS
-from neurender.method import Method, Rule
+from neurender.method import Given, Method, Rule
 from neurender.ndr.method import METHOD as NDR
 from neurender.prt.method import METHOD as PRT
 from neurender.simplification.method import METHOD as SIMPLIFICATION
@@ -21,10 +21,12 @@ from neurender.simplification.method import METHOD as SIMPLIFICATION
 METHODS: tuple[Method, ...] = (PRT, NDR, METABALLS, SIMPLIFICATION)
 
 #: The rules of no method: the example assets the own-assets config reads, the report and
-#: the provenance record it shows.
+#: the provenance record it shows. The provenance's params are the whole resolved config
+#: (``workflow/rules/provenance.smk``): it reads every key. No job's params hold ``gpus``
+#: (a resource).
 WORKFLOW_RULES = {
-    "example_assets": Rule("examples"),
-    "report": Rule("report"),
+    "example_assets": Rule("examples", params=("seed",)),
+    "report": Rule("report", params=("report.title", Given("configfiles"), "seed")),
     "provenance": Rule("report"),
 }
 #: The plan's stage of a rule that is registered nowhere.
