@@ -384,6 +384,9 @@ class Method:
             :func:`neurender.config.wildcard_problems` checks for braces; none by default.
         studies: its committed studies (:class:`Study`), shown in its report section
             after the run's tables as results of their own commits, not of the run.
+        unread_keys: the dotted keys of its config sections no job's params hold (no
+            rule's :attr:`Rule.params`): those that only pick input files or add and
+            remove jobs (which other rerun triggers rerun) and resources (threads).
     """
 
     key: str
@@ -397,6 +400,7 @@ class Method:
     tables_dir: Traversable
     user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
     studies: tuple[Study, ...] = ()
+    unread_keys: tuple[str, ...] = ()
 
     @property
     def short_title(self) -> str:

@@ -262,5 +262,6 @@ METHOD = Method(
         "metaballs_real_scenes": Rule(STAGE, _real_scenes, params=keys.REAL_SCENES),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
     studies=STUDIES,
 )

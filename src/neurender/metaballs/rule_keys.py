@@ -1,11 +1,7 @@
 """What each of the metaballs' rules' jobs read of the config
 (:attr:`neurender.method.Rule.params`), in the order of their params;
-:mod:`neurender.metaballs.method` gives them to its rules.
-
-Keys of the metaballs' sections that no job's params hold: ``metaballs.user_scenes``,
-``metaballs_model.variants`` and ``metaballs_scale.user_structures`` pick input files or
-add and remove jobs (which other rerun triggers rerun), ``metaballs_model.threads`` is a
-resource. Read at DAG time: imports nothing heavy.
+:mod:`neurender.metaballs.method` gives them to its rules. Read at DAG
+time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -15,6 +11,16 @@ from typing import Any
 
 from neurender.metaballs import GAN_VARIANTS
 from neurender.method import Group, Value, When, wildcard
+
+#: The keys of the metaballs' sections no job's params hold: the user's scenes and
+#: structures and the variants trained pick input files or add and remove jobs (which
+#: other rerun triggers rerun); the threads are a resource.
+UNREAD = (
+    "metaballs.user_scenes",
+    "metaballs_model.variants",
+    "metaballs_scale.user_structures",
+    "metaballs_model.threads",
+)
 
 
 def _finite_kernel(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> bool:

@@ -288,4 +288,5 @@ METHOD = Method(
         "ndr_viewer": Rule(STAGE, _viewer, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
 )

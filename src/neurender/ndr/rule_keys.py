@@ -1,8 +1,6 @@
 """What each of NDR's rules' jobs read of the config (:attr:`neurender.method.Rule.params`),
-in the order of their params; :mod:`neurender.ndr.method` gives them to its rules.
-
-Keys of NDR's sections that no job's params hold: ``ndr_model.threads`` (a resource).
-Read at DAG time: imports nothing heavy.
+in the order of their params; :mod:`neurender.ndr.method` gives them to its rules. Read at DAG
+time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -19,6 +17,9 @@ from neurender.ndr import (
     VARIANTS,
     split_kind,
 )
+
+#: The keys of NDR's sections no job's params hold: the threads, a resource.
+UNREAD = ("ndr_model.threads",)
 
 
 def variants(cfg: Mapping[str, Any]) -> list[str]:

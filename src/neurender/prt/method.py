@@ -431,4 +431,5 @@ METHOD = Method(
         "prt_viewer": Rule(MODELS, _viewer, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
 )

@@ -1,10 +1,6 @@
 """What each of DeepPRT's rules' jobs read of the config (:attr:`neurender.method.Rule.params`),
-in the order of their params; :mod:`neurender.prt.method` gives them to its rules.
-
-Keys of DeepPRT's sections that no job's params hold: ``prt.light``, ``prt.probes``,
-``prt.user_probes``, ``prt.user_meshes`` and ``prt.experiments`` pick input files or add
-and remove jobs (which other rerun triggers rerun), ``prt_model.threads`` is a resource.
-Read at DAG time: imports nothing heavy.
+in the order of their params; :mod:`neurender.prt.method` gives them to its rules. Read at DAG
+time: imports nothing heavy.
 """
 
 from __future__ import annotations
@@ -16,6 +12,19 @@ from neurender.method import OfJob, Value, When, wildcard
 
 #: The ray tracer's keys (every job that traces transfer).
 TRANSFER = ("prt.n_bands", "prt.direction_sets", "prt.ray_offset")
+
+
+#: The keys of DeepPRT's sections no job's params hold: the light, the probes, the user's
+#: meshes and probes and the experiments pick input files or add and remove jobs (which
+#: other rerun triggers rerun); the threads are a resource.
+UNREAD = (
+    "prt.light",
+    "prt.probes",
+    "prt.user_probes",
+    "prt.user_meshes",
+    "prt.experiments",
+    "prt_model.threads",
+)
 
 
 def _procedural(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> bool:

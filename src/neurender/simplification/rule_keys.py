@@ -1,9 +1,7 @@
 """What each of the simplification's rules' jobs read of the config
 (:attr:`neurender.method.Rule.params`), in the order of their params;
-:mod:`neurender.simplification.method` gives them to its rules.
-
-Every key of the ``simplification`` section is some job's. Read at DAG time: imports
-nothing heavy.
+:mod:`neurender.simplification.method` gives them to its rules. Every key of the
+``simplification`` section is some job's. Read at DAG time: imports nothing heavy.
 """
 
 from __future__ import annotations
