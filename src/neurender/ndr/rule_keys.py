@@ -69,8 +69,9 @@ def _count(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> int:
 
 #: The keys of a complex sample's object and map, the small sun's included.
 COMPLEX = ("ndr.user_probes_dir", "ndr.user_probe_fraction", "ndr.small_sun_fraction")
-#: The ndr keys every sample reads; the importance-sampled coarse shading's.
-SAMPLE: tuple[Entry, ...] = (
+#: The ndr keys of a sample's scene and its coarse shading: every sample's, and a user
+#: object's render's.
+SCENE = (
     "ndr.width",
     "ndr.primitives",
     "ndr.edge_length",
@@ -79,9 +80,11 @@ SAMPLE: tuple[Entry, ...] = (
     "ndr.environment_height",
     "ndr.coarse_height",
     "ndr.coarse_shading",
-    "ndr.spp",
-    When(_importance, ("ndr.coarse_samples", "ndr.bright_texels")),
 )
+#: The keys of the importance-sampled coarse shading (``ndr.coarse_shading``).
+IMPORTANCE = When(_importance, ("ndr.coarse_samples", "ndr.bright_texels"))
+#: The ndr keys every sample reads.
+SAMPLE: tuple[Entry, ...] = (*SCENE, "ndr.spp", IMPORTANCE)
 #: The keys that make a sample of the job's split: every sample's, its kind's and a test
 #: part's reference.
 SPLIT_SAMPLE = (
@@ -151,21 +154,14 @@ VIEWER = ("seed", "device", "ndr_model.mask_erosion", "ndr_model.relight_sample"
 USER_OBJECTS = (
     "seed",
     "device",
-    "ndr.width",
-    "ndr.primitives",
-    "ndr.edge_length",
-    "ndr.camera_distance",
-    "ndr.fov",
-    "ndr.environment_height",
-    "ndr.coarse_height",
-    "ndr.coarse_shading",
+    *SCENE,
     "ndr.reference_spp",
     *COMPLEX,
     "ndr.sunlit_samples",
     "ndr.user_objects",
     "ndr.user_object_defaults",
     "ndr.user_object_maps",
-    When(_importance, ("ndr.coarse_samples", "ndr.bright_texels")),
+    IMPORTANCE,
     Value("test_samples", lambda cfg, wc: cfg["ndr"]["samples"]["test"], ("ndr.samples.test",)),
     "ndr_model.mask_erosion",
 )
