@@ -151,6 +151,7 @@ def _params(
     wildcards: Mapping[str, str],
     given: Mapping[str, Any],
 ) -> dict[str, Any]:
+    """The params of ``entries`` (:meth:`Rule.job_params`)."""
     found: dict[str, Any] = {}
     for entry in entries:
         if isinstance(entry, When):

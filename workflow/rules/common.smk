@@ -24,7 +24,8 @@ def rule_params(name, **given):
     """The ``params`` (``cfg``) of the jobs of ``name``, a function of a job's wildcards
     (:meth:`neurender.method.Rule.job_params`): what its registry entry declares they
     read of the config, and ``given``, the values its declaration leaves to the rules
-    file (:class:`neurender.method.Given`). An edit of another key never reruns a job."""
+    file (:class:`neurender.method.Given`). An edit of another key never reruns a job.
+    """
     record = neurender.methods.rules()[name]
 
     def params(wildcards):
