@@ -47,18 +47,146 @@ def unet_work(widths: list[int]) -> float:
     return sum(w * w / 4**level for level, w in enumerate(widths)) / 1e3
 
 
+#: ``applies(config, wildcards)`` or ``compute(config, wildcards)``: a function of the full
+#: (defaults-filled) config and one job's wildcard values.
+OfJob = Callable[[Mapping[str, Any], Mapping[str, str]], Any]
+
+
+@dataclasses.dataclass(frozen=True)
+class Value:
+    """A value of a job's params that is not a config key as it stands: ``name`` =
+    ``compute(config, wildcards)``, which reads the config keys ``reads`` (dotted; none
+    for a wildcard or a constant) and no other."""
+
+    name: str
+    compute: OfJob
+    reads: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class When:
+    """Params entries that only some jobs of a rule read: those for which
+    ``applies(config, wildcards)`` is true. The keys the condition looks at are read only
+    where they are entries too (a key that picks the job's inputs reruns it by them)."""
+
+    applies: OfJob
+    entries: tuple[Entry, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """Params entries gathered in one dict of the params, named ``name``."""
+
+    name: str
+    entries: tuple[Entry, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Given:
+    """A value of the params that the rules file passes, ``name`` (no config key nor
+    wildcard: the config files' paths); :meth:`Rule.job_params`'s ``given``."""
+
+    name: str
+
+
+#: One entry of a rule's params (:attr:`Rule.params`): a dotted config key (``"seed"``,
+#: ``"prt.n_bands"``, ``"prt.frames"`` for the whole section), named in the params by its
+#: last part, or a :class:`Value`, :class:`When`, :class:`Group` or :class:`Given`.
+Entry = str | Value | When | Group | Given
+
+
+def wildcard(name: str) -> Value:
+    """The job's wildcard ``name``, under that name."""
+    return Value(name, lambda cfg, wildcards: wildcards[name])
+
+
+def config_value(config: Mapping[str, Any], key: str) -> Any:
+    """The value of the dotted ``key`` in ``config``."""
+    value = config
+    for part in key.split("."):
+        value = value[part]
+    return value
+
+
 @dataclasses.dataclass(frozen=True)
 class Rule:
-    """One rule of the workflow as the plan and the scheduler see it.
+    """One rule of the workflow as the plan, the scheduler and its jobs see it.
 
     ``stage``: the line of ``python -m neurender.plan``'s summary it is counted under;
     ``work``: its work measure (:data:`Work`); ``gpu``: its job runs on a GPU when the
-    config asks for GPUs (config key ``gpus``).
+    config asks for GPUs (config key ``gpus``); ``params``: what its jobs read of the
+    config, in the order of their params (:meth:`job_params`), which Snakemake compares
+    with a finished job's: an edit of a key reruns exactly the jobs that read it.
     """
 
     stage: str
     work: Work = no_work
     gpu: bool = False
+    params: tuple[Entry, ...] = ()
+
+    def job_params(
+        self,
+        config: Mapping[str, Any],
+        wildcards: Mapping[str, str],
+        given: Mapping[str, Any] | None = None,
+    ) -> dict[str, Any]:
+        """The params of the job with ``wildcards``: each entry's value by its name, in
+        order (the entries of a :class:`When` whose condition holds in place of it).
+        ``ValueError`` for a name given twice."""
+        return _params(self.params, config, wildcards, given or {})
+
+    def reads(self, config: Mapping[str, Any], wildcards: Mapping[str, str]) -> set[str]:
+        """The dotted config keys the job with ``wildcards`` reads."""
+        return set(_keys(self.params, lambda when: when.applies(config, wildcards)))
+
+    @property
+    def keys(self) -> set[str]:
+        """The dotted config keys some job of the rule may read."""
+        return set(_keys(self.params, lambda when: True))
+
+
+def _params(
+    entries: tuple[Entry, ...],
+    config: Mapping[str, Any],
+    wildcards: Mapping[str, str],
+    given: Mapping[str, Any],
+) -> dict[str, Any]:
+    """The params of ``entries`` (:meth:`Rule.job_params`)."""
+    found: dict[str, Any] = {}
+    for entry in entries:
+        if isinstance(entry, When):
+            part = (
+                _params(entry.entries, config, wildcards, given)
+                if entry.applies(config, wildcards)
+                else {}
+            )
+        elif isinstance(entry, Group):
+            part = {entry.name: _params(entry.entries, config, wildcards, given)}
+        elif isinstance(entry, Value):
+            part = {entry.name: entry.compute(config, wildcards)}
+        elif isinstance(entry, Given):
+            part = {entry.name: given[entry.name]}
+        else:
+            part = {entry.rpartition(".")[2]: config_value(config, entry)}
+        twice = sorted(set(part) & set(found))
+        if twice:
+            raise ValueError(f"params {twice} given twice; expected each name once")
+        found.update(part)
+    return found
+
+
+def _keys(entries: tuple[Entry, ...], applies: Callable[[When], bool]) -> Iterator[str]:
+    """The config keys of ``entries``, those of each :class:`When` where ``applies``."""
+    for entry in entries:
+        if isinstance(entry, When):
+            if applies(entry):
+                yield from _keys(entry.entries, applies)
+        elif isinstance(entry, Group):
+            yield from _keys(entry.entries, applies)
+        elif isinstance(entry, Value):
+            yield from entry.reads
+        elif isinstance(entry, str):
+            yield entry
 
 
 @dataclasses.dataclass(frozen=True)
@@ -257,6 +385,9 @@ class Method:
             :func:`neurender.config.wildcard_problems` checks for braces; none by default.
         studies: its committed studies (:class:`Study`), shown in its report section
             after the run's tables as results of their own commits, not of the run.
+        unread_keys: the dotted keys of its config sections no job's params hold (no
+            rule's :attr:`Rule.params`): those that only pick input files or add and
+            remove jobs (which other rerun triggers rerun) and resources (threads).
     """
 
     key: str
@@ -270,6 +401,7 @@ class Method:
     tables_dir: Traversable
     user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
     studies: tuple[Study, ...] = ()
+    unread_keys: tuple[str, ...] = ()
 
     @property
     def short_title(self) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import pandas as pd
 
 from neurender.metaballs.method import METHOD as METABALLS
-from neurender.method import Method, Rule
+from neurender.method import Given, Method, Rule
 from neurender.ndr.method import METHOD as NDR
 from neurender.prt.method import METHOD as PRT
 from neurender.simplification.method import METHOD as SIMPLIFICATION
@@ -21,12 +21,15 @@ from neurender.simplification.method import METHOD as SIMPLIFICATION
 METHODS: tuple[Method, ...] = (PRT, NDR, METABALLS, SIMPLIFICATION)
 
 #: The rules of no method: the example assets the own-assets config reads, the report and
-#: the provenance record it shows.
+#: the provenance record it shows. The provenance's params are the whole resolved config
+#: (``workflow/rules/provenance.smk``): it reads every key.
 WORKFLOW_RULES = {
-    "example_assets": Rule("examples"),
-    "report": Rule("report"),
+    "example_assets": Rule("examples", params=("seed",)),
+    "report": Rule("report", params=("report.title", Given("configfiles"), "seed")),
     "provenance": Rule("report"),
 }
+#: The top-level keys no job's params hold: ``gpus``, a resource.
+UNREAD_KEYS = ("gpus",)
 #: The plan's stage of a rule that is registered nowhere.
 OTHER_STAGE = "other"
 
@@ -37,6 +40,12 @@ def rules() -> dict[str, Rule]:
     for method in METHODS:
         found.update(method.rules)
     return found
+
+
+def unread_keys() -> set[str]:
+    """Every config key no job's params hold (:attr:`neurender.method.Method.unread_keys`
+    and :data:`UNREAD_KEYS`)."""
+    return {key for method in METHODS for key in method.unread_keys} | set(UNREAD_KEYS)
 
 
 def rule(name: str) -> Rule:

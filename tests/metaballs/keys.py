@@ -1,10 +1,11 @@
 """Config keys the metaballs' job tests pass: the thesis's scenes and field, as the
-default config gives them (:func:`neurender.metaballs.method.scene_keys`)."""
+default config gives them (:data:`neurender.metaballs.rule_keys.SCENE`)."""
 
-from neurender.metaballs.method import kernel_keys
+from neurender.metaballs import rule_keys
+from neurender.method import Rule
 
-_DEFAULT = {"family": "thesis", "kernel": {"name": "inverse_square"}}
+_DEFAULT = {"metaballs": {"family": "thesis", "kernel": {"name": "inverse_square"}}}
 #: The ``kernel`` params of a job that reads the field.
-KERNEL = {"kernel": kernel_keys(_DEFAULT)}
+KERNEL = Rule("test", params=(rule_keys.KERNEL,)).job_params(_DEFAULT, {})
 #: The scene keys of an examples job beside ``balls`` and ``radius``.
 THESIS_SCENES = {"family": "thesis", **KERNEL}

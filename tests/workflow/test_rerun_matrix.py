@@ -2,8 +2,10 @@
 
 Every config key of the schema gets a representative new value (one at a time) over the
 smoke config, and the rules whose jobs' params change (what ``--rerun-triggers params``
-reruns) must be exactly the rules that read the key (:data:`READERS`). Jobs downstream of
-them rerun because their inputs change, which is another trigger and not counted here.
+reruns) must be exactly the rules that read the key: those with a job in the smoke DAG
+whose registry entry declares the key (:meth:`neurender.method.Rule.reads`), and the
+provenance. Jobs downstream of them rerun because their inputs change, which is another
+trigger and not counted here.
 No run is needed: the params a finished smoke run would have recorded are the smoke DAG's
 own (CI's no-op rerun checks that), so each changed DAG is compared with the smoke DAG
 in memory, as Snakemake compares it with ``.snakemake/metadata``; nothing is written
@@ -22,424 +24,9 @@ from typing import Any
 import pytest
 import yaml
 
-ROOT = Path(__file__).resolve().parents[2]
+import neurender.methods
 
-#: Rules whose params change when a key changes: the rules that read the key. Empty for a
-#: key no job's computation reads (``gpus`` and the ``threads`` keys are resources, except
-#: where a stage's timing divides by them), and for keys that only pick inputs or shape the
-#: DAG (``prt.light``, ``prt.probes``, ``prt.experiments``, ``metaballs.user_scenes``,
-#: ``metaballs_model.variants``, ``metaballs_scale.user_structures``: their jobs appear,
-#: disappear or get other input files, which other triggers rerun). Reviewed by hand when
-#: drafted from a run: each set is what the rule's job reads.
-READERS: dict[str, set[str]] = {
-    "seed": {
-        "example_assets",
-        "metaballs_demo",
-        "metaballs_examples",
-        "metaballs_train",
-        "metaballs_viewer",
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_summary",
-        "ndr_train",
-        "ndr_user_objects",
-        "ndr_viewer",
-        "prt_benchmark",
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_geometry_image",
-        "prt_noise_floor",
-        "prt_sequence",
-        "prt_train",
-        "prt_transfer",
-        "prt_unseen",
-        "report",
-        "simplification_evaluate",
-        "simplification_mesh_figure",
-        "simplification_optimise",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "device": {
-        "metaballs_demo",
-        "metaballs_equal_quality",
-        "metaballs_evaluate",
-        "metaballs_train",
-        "metaballs_user_scenes",
-        "metaballs_viewer",
-        "ndr_data",
-        "ndr_equal_quality",
-        "ndr_evaluate",
-        "ndr_relight",
-        "ndr_summary",
-        "ndr_train",
-        "ndr_user_objects",
-        "ndr_viewer",
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_experiment",
-        "prt_relight",
-        "prt_train",
-        "prt_unseen",
-        "prt_viewer",
-        "simplification_evaluate",
-        "simplification_optimise",
-        "simplification_prepare",
-    },
-    "gpus": set(),
-    "prt.objects": {"prt_model_summary"},
-    "prt.user_meshes": set(),
-    "prt.user_sequences": {"prt_sequence"},
-    "prt.resolution": {"prt_geometry_image", "prt_model_summary"},
-    "prt.source_vertices": {"prt_geometry_image"},
-    "prt.n_bands": {
-        "prt_benchmark",
-        "prt_deploy",
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_experiment",
-        "prt_figure",
-        "prt_model_summary",
-        "prt_momoprt",
-        "prt_noise_floor",
-        "prt_probe",
-        "prt_relight",
-        "prt_train",
-        "prt_transfer",
-        "prt_unseen",
-        "prt_viewer",
-    },
-    "prt.frames.train": {"prt_sequence"},
-    "prt.frames.val": {"prt_sequence"},
-    "prt.frames.test": {"prt_sequence"},
-    "prt.directions": {"prt_benchmark", "prt_evaluate", "prt_noise_floor", "prt_transfer"},
-    "prt.reference_directions": {"prt_equal_quality", "prt_evaluate", "prt_transfer", "prt_unseen"},
-    "prt.direction_sets": {
-        "prt_benchmark",
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_noise_floor",
-        "prt_transfer",
-        "prt_unseen",
-    },
-    "prt.ray_offset": {
-        "prt_benchmark",
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_noise_floor",
-        "prt_transfer",
-        "prt_unseen",
-    },
-    "prt.noise_floor_frames": {"prt_equal_quality", "prt_noise_floor"},
-    "prt.light": set(),
-    "prt.probes": set(),
-    "prt.user_probes": set(),
-    "prt.probe_height": {"prt_probe"},
-    "prt.experiments": set(),
-    "prt.experiment_train_frames": {"prt_sequence"},
-    "prt.experiment_points": {"prt_sequence"},
-    "prt.linear_range": {"prt_sequence"},
-    "prt.excluded_expression": {"prt_sequence"},
-    "prt.benchmark_paper_scale": {"prt_benchmark"},
-    "prt_model.widths": {"prt_train"},
-    "prt_model.blocks": {"prt_train"},
-    "prt_model.epochs": {"prt_train"},
-    "prt_model.batch_size": {"prt_train"},
-    "prt_model.lr": {"prt_train"},
-    "prt_model.shadowing_batch_size": {"prt_train"},
-    "prt_model.shadowing_lr": {"prt_train"},
-    "prt_model.residual_targets": {"prt_train"},
-    "prt_model.lr_schedule": {"prt_train"},
-    "prt_model.threads": set(),
-    "prt_model.pca_components": {"prt_momoprt"},
-    "prt_model.ridges": {"prt_momoprt"},
-    "prt_model.render_resolution": {
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_experiment",
-        "prt_relight",
-        "prt_unseen",
-    },
-    "prt_model.glossy_exponent": {"prt_evaluate", "prt_unseen"},
-    "prt_model.equal_quality_directions": {"prt_equal_quality"},
-    "prt_model.unseen_strengths": {"prt_unseen"},
-    "prt_model.unseen_frames": {"prt_unseen"},
-    # The variants trained are also jobs that appear or disappear (prt_train's).
-    "prt_model.variants": {
-        "prt_equal_quality",
-        "prt_evaluate",
-        "prt_experiment",
-        "prt_model_summary",
-        "prt_unseen",
-    },
-    "prt_model.shipped": {"prt_model_summary", "prt_ship"},
-    "ndr.width": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_summary",
-        "ndr_train",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.samples.train": {"ndr_data"},
-    "ndr.samples.val": {"ndr_data"},
-    "ndr.samples.test": {"ndr_data", "ndr_user_objects"},
-    "ndr.diffuse_samples.train": {"ndr_data"},
-    "ndr.diffuse_samples.val": {"ndr_data"},
-    "ndr.diffuse_samples.test": {"ndr_data"},
-    "ndr.primitives": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.edge_length": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.camera_distance": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.fov": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.environment_height": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.coarse_height": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_summary",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.coarse_samples": {
-        "ndr_data",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_summary",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.bright_texels": {
-        "ndr_data",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.coarse_shading": {
-        "ndr_data",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.spp": {"ndr_data", "ndr_equal_quality", "ndr_relight", "ndr_viewer"},
-    "ndr.reference_spp": {"ndr_data", "ndr_relight", "ndr_user_objects", "ndr_viewer"},
-    "ndr.fixed_probe": {"ndr_data"},
-    "ndr.user_probes_dir": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.user_probe_fraction": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.furnace_spp": {"ndr_summary"},
-    "ndr.equal_quality_spp": {"ndr_equal_quality"},
-    "ndr.equal_quality_samples": {"ndr_equal_quality"},
-    "ndr.small_sun_fraction": {
-        "ndr_data",
-        "ndr_deploy",
-        "ndr_equal_quality",
-        "ndr_relight",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr.sunlit_samples": {"ndr_data", "ndr_user_objects"},
-    "ndr.user_objects": {"ndr_user_objects"},
-    "ndr.user_object_defaults.base_colour": {"ndr_user_objects"},
-    "ndr.user_object_defaults.specular": {"ndr_user_objects"},
-    "ndr.user_object_defaults.roughness": {"ndr_user_objects"},
-    "ndr.user_object_maps": {"ndr_user_objects"},
-    "ndr_model.variants": {"ndr_deploy", "ndr_evaluate", "ndr_summary"},
-    "ndr_model.widths": {"ndr_train"},
-    "ndr_model.sh_hidden": {"ndr_train"},
-    "ndr_model.shading_residual": {"ndr_train"},
-    "ndr_model.epochs": {"ndr_train"},
-    "ndr_model.batch_size": {"ndr_train"},
-    "ndr_model.lr": {"ndr_train"},
-    "ndr_model.lr_schedule": {"ndr_train"},
-    "ndr_model.mask_erosion": {
-        "ndr_equal_quality",
-        "ndr_evaluate",
-        "ndr_relight",
-        "ndr_train",
-        "ndr_user_objects",
-        "ndr_viewer",
-    },
-    "ndr_model.ngf": {"ndr_train"},
-    "ndr_model.ndf": {"ndr_train"},
-    "ndr_model.l1_weight": {"ndr_train"},
-    "ndr_model.gan_weight": {"ndr_train"},
-    "ndr_model.threads": set(),
-    "ndr_model.relight_sample": {"ndr_relight", "ndr_viewer"},
-    "ndr_model.relight_turns": {"ndr_relight"},
-    "metaballs.width": {
-        "metaballs_demo",
-        "metaballs_equal_quality",
-        "metaballs_evaluate",
-        "metaballs_examples",
-        "metaballs_targets",
-        "metaballs_train",
-        "metaballs_user_scenes",
-        "metaballs_viewer",
-    },
-    "metaballs.examples.train": {"metaballs_examples"},
-    "metaballs.examples.val": {"metaballs_examples"},
-    "metaballs.examples.test": {"metaballs_examples"},
-    "metaballs.balls": {"metaballs_examples"},
-    "metaballs.radius": {"metaballs_demo", "metaballs_examples", "metaballs_viewer"},
-    "metaballs.user_scenes": set(),
-    # The field's kernel: every job that builds a scene; support and sharpness only for a
-    # kernel of finite support (the smoke config's is the inverse square).
-    "metaballs.kernel.name": {
-        "metaballs_demo",
-        "metaballs_deploy",
-        "metaballs_equal_quality",
-        "metaballs_evaluate",
-        "metaballs_examples",
-        "metaballs_user_scenes",
-        "metaballs_viewer",
-    },
-    "metaballs.kernel.support": set(),
-    "metaballs.kernel.sharpness": set(),
-    "metaballs.family": {"metaballs_examples"},
-    "metaballs.packing": set(),  # the cluster family's only
-    # The scale study's rules are not in the smoke DAG (their lists are empty there); a
-    # change that adds them adds jobs, rerunning none.
-    "metaballs_scale.balls": set(),
-    "metaballs_scale.widths": set(),
-    "metaballs_scale.scenes": set(),
-    "metaballs_scale.repeats": set(),
-    "metaballs_scale.structures": set(),
-    "metaballs_scale.user_structures": set(),
-    "metaballs_scale.ball_scale": set(),
-    "metaballs_scale.trajectory_frames": set(),
-    "metaballs_model.variants": set(),
-    "metaballs_model.ngf": {"metaballs_train"},
-    "metaballs_model.ndf": {"metaballs_train"},
-    "metaballs_model.epochs": {"metaballs_train"},
-    "metaballs_model.flips": {"metaballs_train"},
-    "metaballs_model.batch_size": {"metaballs_train"},
-    "metaballs_model.lr": {"metaballs_train"},
-    "metaballs_model.lr_schedule": {"metaballs_train"},
-    "metaballs_model.gan_weight": {"metaballs_train"},
-    "metaballs_model.l1_weight": {"metaballs_train"},
-    "metaballs_model.threads": set(),
-    "metaballs_model.demo_frames": {"metaballs_demo", "metaballs_viewer"},
-    "metaballs_model.equal_quality_examples": {"metaballs_equal_quality"},
-    "metaballs_model.demo_balls": {"metaballs_demo", "metaballs_viewer"},
-    "metaballs_model.timing_balls": {"metaballs_demo"},
-    "simplification.cases": {"simplification_evaluate"},
-    "simplification.user_assets": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "simplification.resolution": {
-        "simplification_evaluate",
-        "simplification_optimise",
-        "simplification_prepare",
-    },
-    "simplification.texture_size": {"simplification_optimise", "simplification_prepare"},
-    "simplification.train_views": {"simplification_prepare"},
-    "simplification.test_views": {"simplification_prepare"},
-    "simplification.reference_spp": {"simplification_prepare"},
-    "simplification.test_spp": {"simplification_prepare"},
-    "simplification.eval_spp": {"simplification_evaluate"},
-    "simplification.supersample": {"simplification_prepare"},
-    "simplification.steps": {"simplification_optimise"},
-    "simplification.batch": {"simplification_optimise"},
-    "simplification.spp": {"simplification_optimise"},
-    "simplification.threads": {"simplification_evaluate"},
-    "simplification.lr_positions": {"simplification_optimise"},
-    "simplification.lr_textures": {"simplification_optimise"},
-    "simplification.lr_final_fraction": {"simplification_optimise"},
-    "simplification.laplacian_scale": {"simplification_optimise"},
-    "simplification.laplacian_min_fraction": {"simplification_optimise"},
-    "simplification.intensity": {
-        "simplification_evaluate",
-        "simplification_optimise",
-        "simplification_prepare",
-    },
-    "simplification.camera_distance": {"simplification_prepare"},
-    "simplification.fov": {"simplification_prepare"},
-    "simplification.light_distance": {"simplification_prepare"},
-    "simplification.light_cone": {"simplification_prepare"},
-    "simplification.head_vertices": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "simplification.head_triangles": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "simplification.metaball_count": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "simplification.metaball_grid": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "simplification.metaball_triangles": {
-        "simplification_mesh_figure",
-        "simplification_prepare",
-        "simplification_viewer",
-    },
-    "report.title": {"report"},
-}
+ROOT = Path(__file__).resolve().parents[2]
 
 #: Representative new values where "one more" would break a config rule or mean nothing.
 NEW_VALUES = {
@@ -624,17 +211,55 @@ def matrix():
 PROVENANCE = "provenance"
 
 
-def test_every_schema_key_is_in_the_matrix():
+def covers(declared: str, key: str) -> bool:
+    """Whether the declared key (a leaf or a section) holds the schema's leaf ``key``."""
+    return key == declared or key.startswith(declared + ".")
+
+
+def declared_readers(keys: list[str]) -> dict[str, set[str]]:
+    """For each of ``keys``, the rules of the smoke DAG of which some job reads it by its
+    registry entry (:meth:`neurender.method.Rule.reads` under the job's wildcards)."""
+    with smoke_dag({}) as workflow:
+        reads = [
+            (
+                job.rule.name,
+                neurender.methods.rule(job.rule.name).reads(
+                    workflow.config, dict(job.wildcards_dict)
+                ),
+            )
+            for job in workflow.dag.jobs
+        ]
+    return {
+        key: {rule for rule, read in reads if any(covers(d, key) for d in read)} for key in keys
+    }
+
+
+def schema_keys() -> list[str]:
     schema = yaml.safe_load((ROOT / "workflow/schemas/config.schema.yaml").read_text())
-    assert set(config_keys(schema)) == set(READERS)
+    return list(config_keys(schema))
+
+
+def test_every_schema_key_is_declared_read_or_unread_and_every_declared_key_is_one():
+    """Each schema key is some rule's (:attr:`neurender.method.Rule.keys`) or stated as
+    read by no job (:func:`neurender.methods.unread_keys`), not both; every declared key
+    names a schema key or a section of them."""
+    keys = schema_keys()
+    declared = {k: r for r, rule in neurender.methods.rules().items() for k in rule.keys}
+    unread = neurender.methods.unread_keys()
+    read = {key for key in keys if any(covers(d, key) for d in declared)}
+    assert not read & unread, sorted(read & unread)
+    assert set(keys) == read | unread, sorted(set(keys) - read - unread)
+    unknown = {d: r for d, r in declared.items() if not any(covers(d, k) for k in keys)}
+    assert not unknown, unknown
 
 
 def test_an_edit_reruns_exactly_the_rules_that_read_the_key(matrix):
     # The provenance record holds the whole resolved config, so it reads every key.
+    readers = declared_readers(list(matrix))
     wrong = {
-        key: {"rerun": sorted(found), "readers": sorted(READERS[key] | {PROVENANCE})}
+        key: {"rerun": sorted(found), "readers": sorted(readers[key] | {PROVENANCE})}
         for key, found in matrix.items()
-        if found != READERS[key] | {PROVENANCE}
+        if found != readers[key] | {PROVENANCE}
     }
     assert not wrong, wrong
 

@@ -1,8 +1,8 @@
 # Config validation and the helpers every rules file uses. Each method's rules are in
-# workflow/rules/<method>.smk, its names, params and input functions in
+# workflow/rules/<method>.smk, its names and input functions in
 # workflow/rules/helpers/<method>.smk (included before the rules files, see the Snakefile),
-# what the rest of the workflow knows of it in its record (src/neurender/<package>/method.py,
-# listed in neurender.methods).
+# what the rest of the workflow knows of it, its rules' params included, in its record
+# (src/neurender/<package>/method.py, listed in neurender.methods).
 from snakemake.utils import validate
 
 import neurender.config
@@ -20,14 +20,18 @@ validate(config, schema="../schemas/config.schema.yaml")
 neurender.config.check(config)
 
 
-def section_keys(section, keys, top=(), **extra):
-    """The config keys one job reads, for its ``params`` (``cfg``): ``keys`` of
-    ``config[section]``, ``top``-level keys (``seed``, ``device``) and ``extra`` values
-    (wildcards); an edit of any other key then never reruns the job."""
-    cfg = {k: config[k] for k in top}
-    cfg.update({k: config[section][k] for k in keys})
-    cfg.update(extra)
-    return cfg
+def rule_params(name, **given):
+    """The ``params`` (``cfg``) of the jobs of ``name``, a function of a job's wildcards
+    (:meth:`neurender.method.Rule.job_params`): what its registry entry declares they
+    read of the config, and ``given``, the values its declaration leaves to the rules
+    file (:class:`neurender.method.Given`). An edit of another key never reruns a job.
+    """
+    record = neurender.methods.rules()[name]
+
+    def params(wildcards):
+        return record.job_params(config, dict(wildcards), given)
+
+    return params
 
 
 def user_files(path):

@@ -24,6 +24,6 @@ rule example_assets:
     resources:
         **scheduler_resources("example_assets"),
     params:
-        cfg={"seed": config["seed"]},
+        cfg=rule_params("example_assets"),
     script:
         "../scripts/example_assets.py"

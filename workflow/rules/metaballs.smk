@@ -24,7 +24,7 @@ rule metaballs_examples:
     resources:
         **scheduler_resources("metaballs_examples"),
     params:
-        cfg=metaballs_examples_params,
+        cfg=rule_params("metaballs_examples"),
     script:
         "../scripts/metaballs_examples.py"
 
@@ -56,7 +56,7 @@ rule metaballs_summary:
     resources:
         **scheduler_resources("metaballs_summary"),
     params:
-        cfg={},
+        cfg=rule_params("metaballs_summary"),
     script:
         "../scripts/metaballs_summary.py"
 
@@ -87,7 +87,7 @@ rule metaballs_train:
     resources:
         **scheduler_resources("metaballs_train"),
     params:
-        cfg=metaballs_train_params,
+        cfg=rule_params("metaballs_train"),
     script:
         "../scripts/metaballs_train.py"
 
@@ -128,7 +128,7 @@ rule metaballs_evaluate:
     resources:
         **scheduler_resources("metaballs_evaluate"),
     params:
-        cfg=metaballs_evaluate_params(),
+        cfg=rule_params("metaballs_evaluate"),
     script:
         "../scripts/metaballs_evaluate.py"
 
@@ -162,7 +162,7 @@ rule metaballs_equal_quality:
     resources:
         **scheduler_resources("metaballs_equal_quality"),
     params:
-        cfg=metaballs_equal_quality_params(),
+        cfg=rule_params("metaballs_equal_quality"),
     script:
         "../scripts/metaballs_equal_quality.py"
 
@@ -214,7 +214,7 @@ rule metaballs_demo:
     resources:
         **scheduler_resources("metaballs_demo"),
     params:
-        cfg=metaballs_demo_params(),
+        cfg=rule_params("metaballs_demo"),
     script:
         "../scripts/metaballs_demo.py"
 
@@ -238,7 +238,7 @@ rule metaballs_deploy:
     resources:
         **scheduler_resources("metaballs_deploy"),
     params:
-        cfg={"kernel": metaballs_kernel_keys(config["metaballs"])},
+        cfg=rule_params("metaballs_deploy"),
     script:
         "../scripts/metaballs_deploy.py"
 
@@ -264,7 +264,7 @@ rule metaballs_targets:
     resources:
         **scheduler_resources("metaballs_targets"),
     params:
-        cfg=section_keys("metaballs", ("width",)),
+        cfg=rule_params("metaballs_targets"),
     script:
         "../scripts/metaballs_targets.py"
 
@@ -294,7 +294,7 @@ rule metaballs_user_scenes:
     resources:
         **scheduler_resources("metaballs_user_scenes"),
     params:
-        cfg=metaballs_evaluate_params(),
+        cfg=rule_params("metaballs_user_scenes"),
     script:
         "../scripts/metaballs_user_scenes.py"
 
@@ -316,7 +316,7 @@ rule metaballs_viewer:
     resources:
         **scheduler_resources("metaballs_viewer"),
     params:
-        cfg=metaballs_viewer_params(),
+        cfg=rule_params("metaballs_viewer"),
     script:
         "../scripts/metaballs_viewer.py"
 
@@ -348,7 +348,7 @@ rule metaballs_scale:
     resources:
         **scheduler_resources("metaballs_scale"),
     params:
-        cfg=metaballs_scale_params(),
+        cfg=rule_params("metaballs_scale"),
     script:
         "../scripts/metaballs_scale.py"
 
@@ -384,6 +384,6 @@ rule metaballs_real_scenes:
     resources:
         **scheduler_resources("metaballs_real_scenes"),
     params:
-        cfg=metaballs_real_scenes_params(),
+        cfg=rule_params("metaballs_real_scenes"),
     script:
         "../scripts/metaballs_real_scenes.py"

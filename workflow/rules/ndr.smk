@@ -26,7 +26,7 @@ rule ndr_data:
     resources:
         **scheduler_resources("ndr_data"),
     params:
-        cfg=ndr_data_params,
+        cfg=rule_params("ndr_data"),
     script:
         "../scripts/ndr_data.py"
 
@@ -61,7 +61,7 @@ rule ndr_summary:
     resources:
         **scheduler_resources("ndr_summary"),
     params:
-        cfg=ndr_summary_params(),
+        cfg=rule_params("ndr_summary"),
     script:
         "../scripts/ndr_summary.py"
 
@@ -87,7 +87,7 @@ rule ndr_train:
     resources:
         **scheduler_resources("ndr_train"),
     params:
-        cfg=ndr_train_params,
+        cfg=rule_params("ndr_train"),
     script:
         "../scripts/ndr_train.py"
 
@@ -127,7 +127,7 @@ rule ndr_evaluate:
     resources:
         **scheduler_resources("ndr_evaluate"),
     params:
-        cfg=ndr_evaluate_params(),
+        cfg=rule_params("ndr_evaluate"),
     script:
         "../scripts/ndr_evaluate.py"
 
@@ -150,7 +150,7 @@ rule ndr_deploy:
     resources:
         **scheduler_resources("ndr_deploy"),
     params:
-        cfg=ndr_deploy_params(),
+        cfg=rule_params("ndr_deploy"),
     script:
         "../scripts/ndr_deploy.py"
 
@@ -183,7 +183,7 @@ rule ndr_equal_quality:
     resources:
         **scheduler_resources("ndr_equal_quality"),
     params:
-        cfg=ndr_equal_quality_params(),
+        cfg=rule_params("ndr_equal_quality"),
     script:
         "../scripts/ndr_equal_quality.py"
 
@@ -208,7 +208,7 @@ rule ndr_targets:
     resources:
         **scheduler_resources("ndr_targets"),
     params:
-        cfg={},
+        cfg=rule_params("ndr_targets"),
     script:
         "../scripts/ndr_targets.py"
 
@@ -240,7 +240,7 @@ rule ndr_relight:
     resources:
         **scheduler_resources("ndr_relight"),
     params:
-        cfg=ndr_relight_params,
+        cfg=rule_params("ndr_relight"),
     script:
         "../scripts/ndr_relight.py"
 
@@ -271,7 +271,7 @@ rule ndr_user_objects:
     resources:
         **scheduler_resources("ndr_user_objects"),
     params:
-        cfg=ndr_user_objects_params(),
+        cfg=rule_params("ndr_user_objects"),
     script:
         "../scripts/ndr_user_objects.py"
 
@@ -294,6 +294,6 @@ rule ndr_viewer:
     resources:
         **scheduler_resources("ndr_viewer"),
     params:
-        cfg=ndr_viewer_params,
+        cfg=rule_params("ndr_viewer"),
     script:
         "../scripts/ndr_viewer.py"

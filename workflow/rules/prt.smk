@@ -22,7 +22,7 @@ rule prt_probe:
     resources:
         **scheduler_resources("prt_probe"),
     params:
-        cfg=prt_probe_params,
+        cfg=rule_params("prt_probe"),
     script:
         "../scripts/prt_probe.py"
 
@@ -43,7 +43,7 @@ rule prt_geometry_image:
     resources:
         **scheduler_resources("prt_geometry_image"),
     params:
-        cfg=prt_geometry_image_params,
+        cfg=rule_params("prt_geometry_image"),
     script:
         "../scripts/prt_geometry_image.py"
 
@@ -63,7 +63,7 @@ rule prt_sequence:
     resources:
         **scheduler_resources("prt_sequence"),
     params:
-        cfg=prt_sequence_params,
+        cfg=rule_params("prt_sequence"),
     script:
         "../scripts/prt_sequence.py"
 
@@ -90,7 +90,7 @@ rule prt_transfer:
         **scheduler_resources("prt_transfer"),
         embree=1,
     params:
-        cfg=prt_transfer_params,
+        cfg=rule_params("prt_transfer"),
     script:
         "../scripts/prt_transfer.py"
 
@@ -115,7 +115,7 @@ rule prt_noise_floor:
         **scheduler_resources("prt_noise_floor"),
         embree=1,
     params:
-        cfg=prt_noise_floor_params,
+        cfg=rule_params("prt_noise_floor"),
     script:
         "../scripts/prt_noise_floor.py"
 
@@ -141,7 +141,7 @@ rule prt_figure:
     resources:
         **scheduler_resources("prt_figure"),
     params:
-        cfg=prt_figure_params,
+        cfg=rule_params("prt_figure"),
     script:
         "../scripts/prt_figure.py"
 
@@ -180,7 +180,7 @@ rule prt_summary:
     resources:
         **scheduler_resources("prt_summary"),
     params:
-        cfg={},
+        cfg=rule_params("prt_summary"),
     script:
         "../scripts/prt_summary.py"
 
@@ -207,7 +207,7 @@ rule prt_benchmark:
         **scheduler_resources("prt_benchmark"),
         embree=1,
     params:
-        cfg=prt_benchmark_params(),
+        cfg=rule_params("prt_benchmark"),
     script:
         "../scripts/prt_benchmark.py"
 
@@ -233,7 +233,7 @@ rule prt_probes_figure:
     resources:
         **scheduler_resources("prt_probes_figure"),
     params:
-        cfg={},
+        cfg=rule_params("prt_probes_figure"),
     script:
         "../scripts/prt_probes_figure.py"
 
@@ -259,7 +259,7 @@ rule prt_train:
     resources:
         **scheduler_resources("prt_train"),
     params:
-        cfg=prt_train_params,
+        cfg=rule_params("prt_train"),
     script:
         "../scripts/prt_train.py"
 
@@ -282,7 +282,7 @@ rule prt_deploy:
     resources:
         **scheduler_resources("prt_deploy"),
     params:
-        cfg=prt_deploy_params,
+        cfg=rule_params("prt_deploy"),
     script:
         "../scripts/prt_deploy.py"
 
@@ -310,7 +310,7 @@ rule prt_ship:
     resources:
         **scheduler_resources("prt_ship"),
     params:
-        cfg=prt_ship_params,
+        cfg=rule_params("prt_ship"),
     script:
         "../scripts/prt_ship.py"
 
@@ -330,7 +330,7 @@ rule prt_momoprt:
     resources:
         **scheduler_resources("prt_momoprt"),
     params:
-        cfg=prt_momoprt_params,
+        cfg=rule_params("prt_momoprt"),
     script:
         "../scripts/prt_momoprt.py"
 
@@ -366,7 +366,7 @@ rule prt_evaluate:
         **scheduler_resources("prt_evaluate"),
         embree=1,
     params:
-        cfg=prt_evaluate_params,
+        cfg=rule_params("prt_evaluate"),
     script:
         "../scripts/prt_evaluate.py"
 
@@ -394,7 +394,7 @@ rule prt_equal_quality:
         **scheduler_resources("prt_equal_quality"),
         embree=1,
     params:
-        cfg=prt_equal_quality_params,
+        cfg=rule_params("prt_equal_quality"),
     script:
         "../scripts/prt_equal_quality.py"
 
@@ -473,7 +473,7 @@ rule prt_model_summary:
     resources:
         **scheduler_resources("prt_model_summary"),
     params:
-        cfg=prt_model_summary_params(),
+        cfg=rule_params("prt_model_summary"),
     script:
         "../scripts/prt_model_summary.py"
 
@@ -511,7 +511,7 @@ rule prt_experiment:
     resources:
         **scheduler_resources("prt_experiment"),
     params:
-        cfg=prt_experiment_params,
+        cfg=rule_params("prt_experiment"),
     script:
         "../scripts/prt_experiment.py"
 
@@ -553,7 +553,7 @@ rule prt_unseen:
         **scheduler_resources("prt_unseen"),
         embree=1,
     params:
-        cfg=prt_unseen_params,
+        cfg=rule_params("prt_unseen"),
     script:
         "../scripts/prt_unseen.py"
 
@@ -578,7 +578,7 @@ rule prt_unseen_summary:
     resources:
         **scheduler_resources("prt_unseen_summary"),
     params:
-        cfg={},
+        cfg=rule_params("prt_unseen_summary"),
     script:
         "../scripts/prt_unseen_summary.py"
 
@@ -609,7 +609,7 @@ rule prt_relight:
     resources:
         **scheduler_resources("prt_relight"),
     params:
-        cfg=prt_test_frame_params,
+        cfg=rule_params("prt_relight"),
     script:
         "../scripts/prt_relight.py"
 
@@ -638,7 +638,7 @@ rule prt_viewer:
     resources:
         **scheduler_resources("prt_viewer"),
     params:
-        cfg=prt_viewer_params,
+        cfg=rule_params("prt_viewer"),
     script:
         "../scripts/prt_viewer.py"
 
@@ -664,6 +664,6 @@ rule prt_mesh_figure:
     resources:
         **scheduler_resources("prt_mesh_figure"),
     params:
-        cfg=prt_mesh_figure_params,
+        cfg=rule_params("prt_mesh_figure"),
     script:
         "../scripts/prt_mesh_figure.py"

@@ -19,11 +19,9 @@ rule report:
     resources:
         **scheduler_resources("report"),
     params:
-        cfg={
-            "title": config["report"]["title"],
-            # Relative paths: a checkout moved with its results reruns nothing.
-            "configfiles": [workdir_relative(f) for f in workflow.configfiles],
-            "seed": config["seed"],
-        },
+        # Relative paths: a checkout moved with its results reruns nothing.
+        cfg=rule_params(
+            "report", configfiles=[workdir_relative(f) for f in workflow.configfiles]
+        ),
     script:
         "../scripts/report.py"

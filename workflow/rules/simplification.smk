@@ -30,7 +30,7 @@ rule simplification_prepare:
     resources:
         **scheduler_resources("simplification_prepare"),
     params:
-        cfg=simplification_prepare_params,
+        cfg=rule_params("simplification_prepare"),
     script:
         "../scripts/simplification_prepare.py"
 
@@ -63,7 +63,7 @@ rule simplification_optimise:
     resources:
         **scheduler_resources("simplification_optimise"),
     params:
-        cfg=simplification_optimise_params,
+        cfg=rule_params("simplification_optimise"),
     script:
         "../scripts/simplification_optimise.py"
 
@@ -108,7 +108,7 @@ rule simplification_evaluate:
     resources:
         **scheduler_resources("simplification_evaluate"),
     params:
-        cfg=simplification_evaluate_params(),
+        cfg=rule_params("simplification_evaluate"),
     script:
         "../scripts/simplification_evaluate.py"
 
@@ -135,7 +135,7 @@ rule simplification_viewer:
     resources:
         **scheduler_resources("simplification_viewer"),
     params:
-        cfg=simplification_viewer_params,
+        cfg=rule_params("simplification_viewer"),
     script:
         "../scripts/simplification_viewer.py"
 
@@ -161,6 +161,6 @@ rule simplification_mesh_figure:
     resources:
         **scheduler_resources("simplification_mesh_figure"),
     params:
-        cfg=simplification_viewer_params,
+        cfg=rule_params("simplification_mesh_figure"),
     script:
         "../scripts/simplification_mesh_figure.py"

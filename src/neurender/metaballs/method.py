@@ -18,6 +18,7 @@ from neurender.metaballs import (
     MIRRORINGS,
     trained_variants,
 )
+from neurender.metaballs import rule_keys as keys
 from neurender.metaballs.scene_file import read_user_scenes
 from neurender.method import Method, ReportInputs, Rule, Study, Units
 from neurender.user_paths import UserPath, made_by_the_workflow
@@ -63,29 +64,6 @@ def _structure_problems(paths: list[str]) -> Iterator[str]:
             molecules.read_frames(path)
         except (OSError, ValueError) as err:
             yield f"metaballs_scale.user_structures[{index}] = {path!r}: {err}"
-
-
-def kernel_keys(metaballs: Mapping[str, Any]) -> dict[str, Any]:
-    """The keys of ``metaballs.kernel`` its kernel reads: ``name``, and ``support`` and
-    ``sharpness`` for a kernel of finite support (so that editing an unused one reruns
-    nothing)."""
-    kernel = metaballs["kernel"]
-    if kernel["name"] == "inverse_square":
-        return {"name": kernel["name"]}
-    return {k: kernel[k] for k in ("name", "support", "sharpness")}
-
-
-def scene_keys(metaballs: Mapping[str, Any]) -> dict[str, Any]:
-    """The keys of ``metaballs`` an example's scene reads: ``balls``, ``family``, the
-    kernel's (:func:`kernel_keys`) and ``radius`` (family ``thesis``) or ``packing``
-    (``cluster``)."""
-    own = "packing" if metaballs["family"] == "cluster" else "radius"
-    return {
-        "balls": metaballs["balls"],
-        "family": metaballs["family"],
-        own: metaballs[own],
-        "kernel": kernel_keys(metaballs),
-    }
 
 
 def _examples(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
@@ -270,19 +248,20 @@ METHOD = Method(
     report_inputs=report_inputs,
     user_paths=user_paths,
     rules={
-        "metaballs_examples": Rule(STAGE, _examples),
+        "metaballs_examples": Rule(STAGE, _examples, params=keys.EXAMPLES),
         "metaballs_summary": Rule(STAGE),
-        "metaballs_train": Rule(STAGE, _train, gpu=True),
-        "metaballs_evaluate": Rule(STAGE, _test),
-        "metaballs_equal_quality": Rule(STAGE, _equal_quality),
-        "metaballs_demo": Rule(STAGE, _test),
-        "metaballs_deploy": Rule(STAGE, _deploy),
-        "metaballs_targets": Rule(STAGE),
-        "metaballs_user_scenes": Rule(STAGE),
-        "metaballs_viewer": Rule(STAGE, _viewer),
-        "metaballs_scale": Rule(STAGE, _scale),
-        "metaballs_real_scenes": Rule(STAGE, _real_scenes),
+        "metaballs_train": Rule(STAGE, _train, gpu=True, params=keys.TRAIN),
+        "metaballs_evaluate": Rule(STAGE, _test, params=keys.EVALUATE),
+        "metaballs_equal_quality": Rule(STAGE, _equal_quality, params=keys.EQUAL_QUALITY),
+        "metaballs_demo": Rule(STAGE, _test, params=keys.DEMO),
+        "metaballs_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
+        "metaballs_targets": Rule(STAGE, params=keys.TARGETS),
+        "metaballs_user_scenes": Rule(STAGE, params=keys.EVALUATE),
+        "metaballs_viewer": Rule(STAGE, _viewer, params=keys.VIEWER),
+        "metaballs_scale": Rule(STAGE, _scale, params=keys.SCALE),
+        "metaballs_real_scenes": Rule(STAGE, _real_scenes, params=keys.REAL_SCENES),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
     studies=STUDIES,
 )

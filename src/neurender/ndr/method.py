@@ -18,6 +18,7 @@ from neurender.ndr import (
     MESH_SUFFIXES,
     user_probes_problem,
 )
+from neurender.ndr import rule_keys as keys
 from neurender.user_paths import UserPath, made_by_the_workflow
 from neurender.viewer_data import TURNS
 
@@ -275,16 +276,17 @@ METHOD = Method(
     user_paths=user_paths,
     studies=STUDIES,
     rules={
-        "ndr_data": Rule(STAGE, _data, gpu=True),
-        "ndr_summary": Rule(STAGE, _summary),
-        "ndr_train": Rule(STAGE, _train, gpu=True),
-        "ndr_evaluate": Rule(STAGE, _test),
-        "ndr_deploy": Rule(STAGE, _deploy),
-        "ndr_equal_quality": Rule(STAGE, _equal_quality),
+        "ndr_data": Rule(STAGE, _data, gpu=True, params=keys.DATA),
+        "ndr_summary": Rule(STAGE, _summary, params=keys.SUMMARY),
+        "ndr_train": Rule(STAGE, _train, gpu=True, params=keys.TRAIN),
+        "ndr_evaluate": Rule(STAGE, _test, params=keys.EVALUATE),
+        "ndr_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
+        "ndr_equal_quality": Rule(STAGE, _equal_quality, params=keys.EQUAL_QUALITY),
         "ndr_targets": Rule(STAGE),
-        "ndr_relight": Rule(STAGE, _test),
-        "ndr_user_objects": Rule(STAGE),
-        "ndr_viewer": Rule(STAGE, _viewer),
+        "ndr_relight": Rule(STAGE, _test, params=keys.RELIGHT),
+        "ndr_user_objects": Rule(STAGE, params=keys.USER_OBJECTS),
+        "ndr_viewer": Rule(STAGE, _viewer, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
 )

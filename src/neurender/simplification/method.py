@@ -12,6 +12,7 @@ from typing import Any
 from neurender import asset_files, checks
 from neurender.method import Method, ReportInputs, Rule, Units
 from neurender.simplification import CASES, VARIANTS
+from neurender.simplification import rule_keys as keys
 from neurender.user_paths import UserPath
 
 STAGE = "simplification"
@@ -107,11 +108,11 @@ METHOD = Method(
     report_inputs=report_inputs,
     user_paths=user_paths,
     rules={
-        "simplification_prepare": Rule(STAGE, _prepare, gpu=True),
-        "simplification_optimise": Rule(STAGE, _optimise, gpu=True),
-        "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True),
-        "simplification_viewer": Rule(STAGE, _reference),
-        "simplification_mesh_figure": Rule(STAGE, _reference),
+        "simplification_prepare": Rule(STAGE, _prepare, gpu=True, params=keys.PREPARE),
+        "simplification_optimise": Rule(STAGE, _optimise, gpu=True, params=keys.OPTIMISE),
+        "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True, params=keys.EVALUATE),
+        "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
+        "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
 )
