@@ -20,7 +20,7 @@ import pytest
 import yaml
 
 from neurender import config, costs, io, methods, plan, tables
-from neurender.method import TABLE_COLUMNS, Method, ReportInputs, Rule, Units
+from neurender.method import STAGES, TABLE_COLUMNS, Method, ReportInputs, Rule, Units
 from neurender.report import build
 from neurender.user_paths import UserPath
 
@@ -60,6 +60,8 @@ TOY = Method(
     problems=_toy_problems,
     report_inputs=_toy_inputs,
     rules={"toy_render": Rule("toy stage", _toy_work, gpu=True), "toy_summary": Rule("toy stage")},
+    # One rule does every stage but the summary: a toy's whole pipeline is one render.
+    stages={stage: "toy_summary" if stage == "summary" else "toy_render" for stage in STAGES},
     tables_dir=Path("written by the toy fixture"),
     user_paths=_toy_user_paths,
 )
@@ -289,3 +291,22 @@ def test_the_report_rule_reads_every_methods_report_inputs_and_studies(smoke):
     block = out.stdout.split("\nrule provenance:\n", 1)[1]
     provenance = re.search(r"^\s+input: (.*)$", block, re.M).group(1).split(", ")
     assert not set(studies) & set(provenance)
+
+
+@pytest.mark.parametrize("method", methods.METHODS, ids=lambda m: m.key)
+def test_every_method_has_every_stage_as_a_rule_of_its_rules_file(method):
+    rules_file = (ROOT / "workflow/rules" / f"{method.key}.smk").read_text()
+    defined = set(re.findall(r"^rule (\w+):", rules_file, flags=re.MULTILINE))
+    assert tuple(method.stages) == STAGES
+    assert set(method.stages.values()) <= defined
+    # Each stage its own rule: no rule does two stages' work.
+    assert len(set(method.stages.values())) == len(STAGES)
+
+
+def test_a_method_whose_stages_miss_one_or_name_no_rule_is_refused():
+    stages = dict(TOY.stages)
+    del stages["deploy"]
+    with pytest.raises(ValueError, match=r"method 'toy': stages .*expected .*'deploy'"):
+        dataclasses.replace(TOY, stages=stages)
+    with pytest.raises(ValueError, match=r"stages \{'deploy': 'toy_export'\} name no rule"):
+        dataclasses.replace(TOY, stages={**TOY.stages, "deploy": "toy_export"})

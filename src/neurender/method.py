@@ -361,6 +361,15 @@ def _label(names: list[str], key: object) -> str:
     )
 
 
+#: The stages every method has, in order, each one rule of its rules file
+#: (:attr:`Method.stages`): its data; the data's summary; training; deployment (the one
+#: place a result becomes its shipped files, checked and timed: a change to the export
+#: reruns it, not training); the evaluation on held-out data; the equal-quality comparison
+#: with its reference renderer (:mod:`neurender.equal_quality`); its targets (from its
+#: results only: ``results/<key>/targets.csv``).
+STAGES = ("data", "summary", "train", "deploy", "evaluate", "equal_quality", "targets")
+
+
 @dataclasses.dataclass(frozen=True)
 class Method:
     """One method of the project.
@@ -377,6 +386,7 @@ class Method:
             breaks that the schema cannot state, one sentence each naming keys and values.
         report_inputs: ``report_inputs(config)``: the files of its report section.
         rules: every rule of its rules file, by name.
+        stages: the rule (a key of ``rules``) of each of :data:`STAGES`, by stage.
         tables_dir: the folder of its published numbers, headline rows and target
             thresholds (:data:`TABLE_COLUMNS`, read by :meth:`table`): its package's,
             ``importlib.resources.files(__package__)``, so that they ship with its code.
@@ -398,10 +408,20 @@ class Method:
     problems: Callable[[Mapping[str, Any]], Iterator[str]]
     report_inputs: Callable[[Mapping[str, Any]], ReportInputs]
     rules: Mapping[str, Rule]
+    stages: Mapping[str, str]
     tables_dir: Traversable
     user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
     studies: tuple[Study, ...] = ()
     unread_keys: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if tuple(self.stages) != STAGES:
+            raise ValueError(
+                f"method {self.key!r}: stages {list(self.stages)}; expected {list(STAGES)}"
+            )
+        unknown = {s: r for s, r in self.stages.items() if r not in self.rules}
+        if unknown:
+            raise ValueError(f"method {self.key!r}: stages {unknown} name no rule of its rules")
 
     @property
     def short_title(self) -> str:

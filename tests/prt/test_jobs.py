@@ -506,9 +506,12 @@ def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_t
     assert _image(outputs["figure"]).std() > 1
 
 
-def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
-    evaluated, trained, head, tmp_path
-):
+@pytest.fixture(scope="module")
+def model_summary(evaluated, trained, head, tmp_path_factory):
+    """The model summary's and the targets' jobs run on the head's evaluation, its
+    held-out experiment and an unseen-deformation benchmark of one frame: (the files
+    of the summary's outputs, the targets' table)."""
+    tmp_path = tmp_path_factory.mktemp("model_summary")
     _, files = trained
     stem = head / "variants" / "paper_glossy"  # trained by the evaluation fixture
     files = {**files, ("paper", "glossy"): {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx"}}
@@ -540,15 +543,23 @@ def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
         "shipped": [files["shadowing", m]["onnx"] for m in ("diffuse", "glossy")],
         "shipped_int8": [files["shadowing", m]["int8"] for m in ("diffuse", "glossy")],
         "frames": [head / split for split in ("train", "val", "test")],
-        "experiments": [experiment["csv"]],
-        "unseen": unseen["csv"],
     }
-    names = ("metrics", "equal_quality", "deployment", "compression", "targets")
+    names = ("metrics", "equal_quality", "deployment", "compression")
     outputs = {name: tmp_path / f"summary_{name}.csv" for name in names}
     outputs |= {"loss": tmp_path / "loss.png", "equal_quality_figure": tmp_path / "eq.png"}
     params = {"objects": ["head"], "variants": variants, "shipped": "shadowing"}
     params |= {"resolution": CFG["resolution"], "n_bands": CFG["n_bands"]}
     jobs.prt_model_summary(summary_inputs, outputs, params, 1)
+    target_inputs = {k: outputs[k] for k in ("metrics", "equal_quality")}
+    target_inputs |= {"experiments": [experiment["csv"]], "unseen": unseen["csv"]}
+    targets = {"targets": tmp_path / "targets.csv"}
+    jobs.prt_targets(target_inputs, targets, {"shipped": "shadowing"}, 1)
+    return outputs, io.read_csv(targets["targets"])
+
+
+def test_the_model_summary_gathers_every_objects_results(model_summary, evaluated):
+    outputs, _ = model_summary
+    variants = EVALUATE["variants"]
     pd.testing.assert_frame_equal(io.read_csv(outputs["metrics"]), evaluated["metrics"])
     equal = io.read_csv(outputs["equal_quality"])
     pd.testing.assert_frame_equal(equal, evaluated["equal_quality"])
@@ -561,12 +572,22 @@ def test_the_model_summary_gathers_every_objects_results_and_states_its_targets(
         for kind in ("", " int8")
         for m in ("diffuse", "glossy")
     }
-    targets = io.read_csv(outputs["targets"])
-    assert (
-        set(targets.subject) >= {"head", "head_excluded"} and targets.met.isin([True, False]).all()
-    )
+    for png in ("loss", "equal_quality_figure"):
+        assert _image(outputs[png]).std() > 1
+
+
+def test_the_targets_are_the_shipped_variants_of_every_object_experiment_and_benchmark(
+    model_summary,
+):
+    outputs, targets = model_summary
+    assert set(targets.subject) >= {"head", "head_excluded"}
+    assert targets.met.isin([True, False]).all()
     assert targets.check.str.contains("DeepPRT shadowing").all()
     speed = targets[targets.check.str.contains("faster than the cheapest ray-traced transfer")]
     assert len(speed) == 2  # the shipped variant's float32 and int8 graphs
-    for png in ("loss", "equal_quality_figure"):
-        assert _image(outputs[png]).std() > 1
+    # Each equal-quality target states the speed-up of its graph's row in the summary.
+    equal = io.read_csv(outputs["equal_quality"])
+    ratios = equal[equal.metric == "equal_quality_speedup"].set_index("model")["value"]
+    for row in speed.itertuples():
+        model = row.check.split(" at least ")[0]
+        assert row.measured == pytest.approx(ratios[model])

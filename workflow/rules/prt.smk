@@ -423,8 +423,6 @@ rule prt_model_summary:
         frames=expand(
             "results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS
         ),
-        experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
-        unseen="results/prt/unseen.csv",
     output:
         metrics=report(
             "results/prt/metrics.csv",
@@ -445,12 +443,6 @@ rule prt_model_summary:
             labels={"table": "equal quality"},
         ),
         deployment="results/prt/deployment.csv",
-        targets=report(
-            "results/prt/targets.csv",
-            category="DeepPRT",
-            subcategory="models",
-            labels={"table": "targets"},
-        ),
         loss=report(
             "results/prt/figures/loss_curves.png",
             category="DeepPRT",
@@ -476,6 +468,34 @@ rule prt_model_summary:
         cfg=rule_params("prt_model_summary"),
     script:
         "../scripts/prt_model_summary.py"
+
+
+rule prt_targets:
+    input:
+        metrics="results/prt/metrics.csv",
+        equal_quality="results/prt/equal_quality.csv",
+        experiments=expand("results/prt/{x}/experiment.csv", x=PRT_EXPERIMENTS),
+        unseen="results/prt/unseen.csv",
+    output:
+        targets=report(
+            "results/prt/targets.csv",
+            category="DeepPRT",
+            subcategory="models",
+            labels={"table": "targets"},
+        ),
+    log:
+        "results/logs/prt_targets/prt_targets.log",
+    benchmark:
+        "results/benchmarks/prt_targets/prt_targets.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("prt_targets"),
+    params:
+        cfg=rule_params("prt_targets"),
+    script:
+        "../scripts/prt_targets.py"
 
 
 rule prt_experiment:

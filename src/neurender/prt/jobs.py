@@ -281,10 +281,9 @@ def prt_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -
 
 def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every object's results in the report's DeepPRT tables (its ``deployment`` rows
-    too), every variant's compression rows and loss curves, the shipped files' sizes
-    (their int8 forms' too, ``shipped_int8``), the equal-quality figure, and the targets
-    of the shipped variant (``params["shipped"]``), the unseen-deformation benchmark's
-    (``unseen``, :mod:`neurender.prt.unseen_scores`) too."""
+    too), every variant's compression rows and loss curves, the shipped variant's
+    (``params["shipped"]``) files' sizes (their int8 forms' too, ``shipped_int8``) and the
+    equal-quality figure."""
     from neurender.deployment import read_deployment
     from neurender.prt import figures, summary
 
@@ -316,13 +315,25 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
         ]
     )
     io.write_csv(outputs["compression"], compression.reset_index(drop=True))
-    experiments = [io.read_csv(p) for p in inputs["experiments"]]
-    unseen = io.read_csv(inputs["unseen"])
-    targets = summary.target_frame(table, equal, experiments, shipped, unseen)
-    io.write_csv(outputs["targets"], targets)
     figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
     models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
     figures.equal_quality_figure(equal, models, outputs["equal_quality_figure"])
+
+
+def prt_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The targets of the shipped variant (``params["shipped"]``): of every object's test
+    ``metrics`` and ``equal_quality`` table, of the held-out ``experiments`` and of the
+    ``unseen``-deformation benchmark (:func:`neurender.prt.summary.target_frame`)."""
+    from neurender.prt import summary
+
+    metrics = io.read_csv(inputs["metrics"])
+    equal = io.read_csv(inputs["equal_quality"])
+    experiments = [io.read_csv(p) for p in inputs["experiments"]]
+    unseen = io.read_csv(inputs["unseen"])
+    shipped = VARIANTS[params["shipped"]]
+    io.write_csv(
+        outputs["targets"], summary.target_frame(metrics, equal, experiments, shipped, unseen)
+    )
 
 
 def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

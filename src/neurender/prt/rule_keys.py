@@ -148,6 +148,8 @@ MODEL_SUMMARY = (
     "prt_model.shipped",
     "prt.objects",
 )
+#: The shipped variant, whose targets these are.
+TARGETS = ("prt_model.shipped",)
 #: The benchmark's sizes, its ground truth's keys and the scores' render keys.
 UNSEEN = (
     "seed",
