@@ -60,10 +60,10 @@ TOY = Method(
     problems=_toy_problems,
     report_inputs=_toy_inputs,
     rules={"toy_render": Rule("toy stage", _toy_work, gpu=True), "toy_summary": Rule("toy stage")},
-    # One rule does every stage but the summary: a toy's whole pipeline is one render.
-    stages={stage: "toy_summary" if stage == "summary" else "toy_render" for stage in STAGES},
     tables_dir=Path("written by the toy fixture"),
     user_paths=_toy_user_paths,
+    # One rule does every stage but the summary: a toy's whole pipeline is one render.
+    stage_rules={stage: "toy_render" for stage in STAGES if stage != "summary"},
 )
 
 #: The toy method's own tables, as its package would hold them.
@@ -303,10 +303,13 @@ def test_every_method_has_every_stage_as_a_rule_of_its_rules_file(method):
     assert len(set(method.stages.values())) == len(STAGES)
 
 
-def test_a_method_whose_stages_miss_one_or_name_no_rule_is_refused():
-    stages = dict(TOY.stages)
-    del stages["deploy"]
-    with pytest.raises(ValueError, match=r"method 'toy': stages .*expected .*'deploy'"):
-        dataclasses.replace(TOY, stages=stages)
+def test_a_method_whose_stage_names_no_rule_or_no_stage_is_refused():
     with pytest.raises(ValueError, match=r"stages \{'deploy': 'toy_export'\} name no rule"):
-        dataclasses.replace(TOY, stages={**TOY.stages, "deploy": "toy_export"})
+        dataclasses.replace(TOY, stage_rules={**TOY.stage_rules, "deploy": "toy_export"})
+    with pytest.raises(ValueError, match=r"stage_rules \['export'\]; expected stages of"):
+        dataclasses.replace(TOY, stage_rules={**TOY.stage_rules, "export": "toy_render"})
+    # By default a stage's rule is <key>_<stage>: the toy has toy_summary but no toy_data.
+    with pytest.raises(ValueError, match=r"'data': 'toy_data'") as refused:
+        dataclasses.replace(TOY, stage_rules={})
+    assert "toy_summary" not in str(refused.value)
+    assert TOY.stages["summary"] == "toy_summary"

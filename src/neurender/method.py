@@ -386,7 +386,8 @@ class Method:
             breaks that the schema cannot state, one sentence each naming keys and values.
         report_inputs: ``report_inputs(config)``: the files of its report section.
         rules: every rule of its rules file, by name.
-        stages: the rule (a key of ``rules``) of each of :data:`STAGES`, by stage.
+        stage_rules: the rule of each of :data:`STAGES` that is not named
+            ``<key>_<stage>`` (:attr:`stages`), by stage.
         tables_dir: the folder of its published numbers, headline rows and target
             thresholds (:data:`TABLE_COLUMNS`, read by :meth:`table`): its package's,
             ``importlib.resources.files(__package__)``, so that they ship with its code.
@@ -408,20 +409,27 @@ class Method:
     problems: Callable[[Mapping[str, Any]], Iterator[str]]
     report_inputs: Callable[[Mapping[str, Any]], ReportInputs]
     rules: Mapping[str, Rule]
-    stages: Mapping[str, str]
     tables_dir: Traversable
     user_paths: Callable[[Mapping[str, Any]], Iterator[UserPath]] = no_user_paths
     studies: tuple[Study, ...] = ()
     unread_keys: tuple[str, ...] = ()
+    stage_rules: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
-        if tuple(self.stages) != STAGES:
+        other = sorted(set(self.stage_rules) - set(STAGES))
+        if other:
             raise ValueError(
-                f"method {self.key!r}: stages {list(self.stages)}; expected {list(STAGES)}"
+                f"method {self.key!r}: stage_rules {other}; expected stages of {STAGES}"
             )
         unknown = {s: r for s, r in self.stages.items() if r not in self.rules}
         if unknown:
             raise ValueError(f"method {self.key!r}: stages {unknown} name no rule of its rules")
+
+    @property
+    def stages(self) -> dict[str, str]:
+        """Its rule of each of :data:`STAGES`, in their order: ``<key>_<stage>`` unless
+        :attr:`stage_rules` names another."""
+        return {stage: self.stage_rules.get(stage, f"{self.key}_{stage}") for stage in STAGES}
 
     @property
     def short_title(self) -> str:

@@ -261,16 +261,8 @@ METHOD = Method(
         "metaballs_scale": Rule(STAGE, _scale, params=keys.SCALE),
         "metaballs_real_scenes": Rule(STAGE, _real_scenes, params=keys.REAL_SCENES),
     },
-    stages={
-        "data": "metaballs_examples",
-        "summary": "metaballs_summary",
-        "train": "metaballs_train",
-        "deploy": "metaballs_deploy",
-        "evaluate": "metaballs_evaluate",
-        "equal_quality": "metaballs_equal_quality",
-        "targets": "metaballs_targets",
-    },
     tables_dir=resources.files(__package__),
     unread_keys=keys.UNREAD,
     studies=STUDIES,
+    stage_rules={"data": "metaballs_examples"},
 )

@@ -287,15 +287,6 @@ METHOD = Method(
         "ndr_user_objects": Rule(STAGE, params=keys.USER_OBJECTS),
         "ndr_viewer": Rule(STAGE, _viewer, params=keys.VIEWER),
     },
-    stages={
-        "data": "ndr_data",
-        "summary": "ndr_summary",
-        "train": "ndr_train",
-        "deploy": "ndr_deploy",
-        "evaluate": "ndr_evaluate",
-        "equal_quality": "ndr_equal_quality",
-        "targets": "ndr_targets",
-    },
     tables_dir=resources.files(__package__),
     unread_keys=keys.UNREAD,
 )

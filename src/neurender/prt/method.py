@@ -431,15 +431,7 @@ METHOD = Method(
         "prt_relight": Rule(MODELS, params=keys.TEST_FRAME),
         "prt_viewer": Rule(MODELS, _viewer, params=keys.VIEWER),
     },
-    stages={
-        "data": "prt_transfer",
-        "summary": "prt_summary",
-        "train": "prt_train",
-        "deploy": "prt_deploy",
-        "evaluate": "prt_evaluate",
-        "equal_quality": "prt_equal_quality",
-        "targets": "prt_targets",
-    },
     tables_dir=resources.files(__package__),
     unread_keys=keys.UNREAD,
+    stage_rules={"data": "prt_transfer"},
 )

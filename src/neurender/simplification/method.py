@@ -114,14 +114,6 @@ METHOD = Method(
         "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),
     },
-    stages={
-        "data": "simplification_prepare",
-        "summary": "simplification_evaluate",
-        "train": "simplification_optimise",
-        "deploy": "simplification_optimise",
-        "evaluate": "simplification_evaluate",
-        "equal_quality": "simplification_evaluate",
-        "targets": "simplification_evaluate",
-    },
     tables_dir=resources.files(__package__),
+    stage_rules={"data": "simplification_prepare", "train": "simplification_optimise", "summary": "simplification_evaluate", "deploy": "simplification_optimise", "equal_quality": "simplification_evaluate", "targets": "simplification_evaluate"},
 )
