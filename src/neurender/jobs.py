@@ -43,6 +43,14 @@ def run(smk: Any, job: Job) -> None:
     )
 
 
+def input_name(kind: str, *key: str) -> str:
+    """The name of one of a rule's many inputs of ``kind``, by what it is (object, variant,
+    material, split): ``kind:part:part``, e.g. ``pt:paper:diffuse``. The workflow's input
+    functions name such files by it and jobs look each up by it, never by its place in a
+    list."""
+    return ":".join((kind, *key))
+
+
 def _files(named: Any) -> dict[str, str | list[str]]:
     """Snakemake's named file list as a plain dict (an ``expand`` entry as a list)."""
     return {k: v if isinstance(v, str) else list(v) for k, v in named.items()}

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from neurender import io, sh, train
-from neurender.jobs import copy_files
+from neurender.jobs import copy_files, input_name
 from neurender.prt import data_jobs, frames, jobs
 from neurender.prt.local_model import ShadowingTransfer
 from neurender.prt.model import DeepPRT, TransferNetwork, load_transfer_module
@@ -293,21 +293,22 @@ def evaluated(trained, head):
         {**CFG, "object": "head", "split": "test", "directions": 64},
         1,
     )
-    momoprt = []
+    momoprt = {}
     for material in ("diffuse", "glossy"):
         out = {"model": head / f"momoprt_{material}.npz"}
         data_jobs.prt_momoprt(inputs, out, {**CFG, **EVALUATE, "material": material}, 1)
-        momoprt.append(out["model"])
+        momoprt[input_name("momoprt", material)] = out["model"]
     pairs = [(v, m) for v in EVALUATE["variants"] for m in ("diffuse", "glossy")]
     networks = {
-        key: [files[p][name] for p in pairs]
-        for key, name in (("deepprt", "checkpoint"), ("onnx", "onnx"), ("int8", "int8"))
+        input_name(kind, *p): files[p][name]
+        for kind, name in (("pt", "checkpoint"), ("onnx", "onnx"), ("int8.onnx", "int8"))
+        for p in pairs
     }
     test = {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
     light = {"light": head / "sky_sh.csv"}
     params = {**CFG, **EVALUATE}
     scores = {"metrics": head / "metrics.csv", "frames": head / "metrics_frames.csv"}
-    evaluate_inputs = {**inputs, **test, **networks, **light, "momoprt": momoprt}
+    evaluate_inputs = {**inputs, **test, **networks, **light, **momoprt}
     jobs.prt_evaluate(evaluate_inputs, {**scores, "figure": head / "prediction.png"}, params, 1)
     timed = {"equal_quality": head / "equal_quality.csv", "deployment": head / "deployment.csv"}
     equal_inputs = {"seq": inputs["seq"], **test, **networks, **light, "frames": scores["frames"]}
@@ -490,8 +491,8 @@ def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_t
     variants = EVALUATE["variants"]
     inputs = {"seq": head / "seq.npz", "light": head / "sky_sh.csv"}
     inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
-    inputs |= {"deepprt": [files[v, "diffuse"]["checkpoint"] for v in variants]}
-    inputs |= {"onnx": [files[v, "diffuse"]["onnx"] for v in variants]}
+    inputs |= {input_name("pt", v, "diffuse"): files[v, "diffuse"]["checkpoint"] for v in variants}
+    inputs |= {input_name("onnx", v, "diffuse"): files[v, "diffuse"]["onnx"] for v in variants}
     inputs |= {"momoprt": head / "momoprt_diffuse.npz"}
     outputs = {"csv": head / "experiment.csv", "figure": head / "experiment.png"}
     outputs |= {"deployment": head / "experiment_deployment.csv"}
@@ -517,33 +518,34 @@ def model_summary(evaluated, trained, head, tmp_path_factory):
     files = {**files, ("paper", "glossy"): {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx"}}
     files["paper", "glossy"] |= {"int8": f"{stem}_int8.onnx", "loss": f"{stem}_loss.csv"}
     variants = EVALUATE["variants"]
-    pairs = [(v, m) for v in variants for m in ("diffuse", "glossy")]  # the expand order
-    momoprt = [head / f"momoprt_{m}.npz" for m in ("diffuse", "glossy")]
+    pairs = [(v, m) for v in variants for m in ("diffuse", "glossy")]
+    momoprt = {input_name("momoprt", m): head / f"momoprt_{m}.npz" for m in ("diffuse", "glossy")}
     light = head / "sky_sh.csv"
     unseen = {"csv": tmp_path / "unseen.csv", "figure": tmp_path / "unseen.png"}
-    unseen_inputs = {"gim": head / "gim.npz", "seq": head / "seq.npz", "light": light}
-    unseen_inputs |= {"deepprt": [files[p]["checkpoint"] for p in pairs], "momoprt": momoprt}
-    unseen_inputs |= {"onnx": [files[p]["onnx"] for p in pairs]}
+    unseen_inputs = {"gim": head / "gim.npz", "seq": head / "seq.npz", "light": light, **momoprt}
+    unseen_inputs |= {input_name("pt", *p): files[p]["checkpoint"] for p in pairs}
+    unseen_inputs |= {input_name("onnx", *p): files[p]["onnx"] for p in pairs}
     params = {**CFG, **EVALUATE, "object": "head", "unseen_strengths": [1.0], "unseen_frames": 1}
     jobs.prt_unseen(unseen_inputs, unseen, {**params, "reference_directions": 16}, 1)
     experiment = {"csv": tmp_path / "experiment.csv", "figure": tmp_path / "experiment.png"}
     experiment["deployment"] = tmp_path / "experiment_deployment.csv"
-    inputs = {"seq": head / "seq.npz", "light": light, "momoprt": momoprt[0]}
+    inputs = {"seq": head / "seq.npz", "light": light, "momoprt": head / "momoprt_diffuse.npz"}
     inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
-    inputs |= {"deepprt": [files[v, "diffuse"]["checkpoint"] for v in variants]}
-    inputs |= {"onnx": [files[v, "diffuse"]["onnx"] for v in variants]}
+    inputs |= {input_name("pt", v, "diffuse"): files[v, "diffuse"]["checkpoint"] for v in variants}
+    inputs |= {input_name("onnx", v, "diffuse"): files[v, "diffuse"]["onnx"] for v in variants}
     jobs.prt_experiment(inputs, experiment, {**params, "object": "head_excluded"}, 1)
     summary_inputs = {
         "metrics": [head / "metrics.csv"],
         "equal_quality": [head / "equal_quality.csv"],
         "deployment": [head / "deployment.csv", experiment["deployment"]],
-        "checkpoints": [files[p]["checkpoint"] for p in pairs],
-        "onnx": [files[p]["onnx"] for p in pairs],
-        "losses": [files[p]["loss"] for p in pairs],
-        "shipped": [files["shadowing", m]["onnx"] for m in ("diffuse", "glossy")],
-        "shipped_int8": [files["shadowing", m]["int8"] for m in ("diffuse", "glossy")],
-        "frames": [head / split for split in ("train", "val", "test")],
     }
+    for kind, name in (("pt", "checkpoint"), ("onnx", "onnx"), ("loss.csv", "loss")):
+        summary_inputs |= {input_name(kind, "head", *p): files[p][name] for p in pairs}
+    for m in ("diffuse", "glossy"):
+        summary_inputs[input_name("shipped", "head", m)] = files["shadowing", m]["onnx"]
+        summary_inputs[input_name("shipped_int8", "head", m)] = files["shadowing", m]["int8"]
+    for split in ("train", "val", "test"):
+        summary_inputs[input_name("frames", "head", split)] = head / split
     names = ("metrics", "equal_quality", "deployment", "compression")
     outputs = {name: tmp_path / f"summary_{name}.csv" for name in names}
     outputs |= {"loss": tmp_path / "loss.png", "equal_quality_figure": tmp_path / "eq.png"}

@@ -3,6 +3,7 @@ import pandas as pd
 import pytest
 
 from neurender import io
+from neurender.jobs import input_name
 from neurender.prt import MATERIALS, VARIANTS, data_jobs, jobs, unseen, unseen_scores, unshadowed
 from neurender.prt.frames import Split, ray_offset
 from neurender.prt.local_model import LocalConfig
@@ -64,7 +65,7 @@ def head(tmp_path_factory):
     rng = np.random.default_rng(0)
     train, val = _random_split(4, rng), _random_split(2, rng)
     light = rng.normal(size=(16, 3))
-    files = {"deepprt": [], "onnx": [], "momoprt": []}
+    files = {}
     for variant in VARIANTS:
         for material in MATERIALS:
             ckpt, onnx = d / f"{variant}_{material}.pt", d / f"{variant}_{material}.onnx"
@@ -82,12 +83,12 @@ def head(tmp_path_factory):
                 )
                 train_local(train, val, local, TRAIN, 1, str(ckpt), str(d / "l.csv"), light=light)
             export_deepprt(ckpt, val, onnx)
-            files["deepprt"].append(str(ckpt))
-            files["onnx"].append(str(onnx))
+            files[input_name("pt", variant, material)] = str(ckpt)
+            files[input_name("onnx", variant, material)] = str(onnx)
     for material in MATERIALS:
         path = d / f"momoprt_{material}.npz"
         fit_momoprt(train, val, material, True, 4, [1e-3]).save(path)
-        files["momoprt"].append(str(path))
+        files[input_name("momoprt", material)] = str(path)
     inputs = {**files, "gim": d / "gim.npz", "seq": d / "seq.npz", "light": d / "sky_sh.csv"}
     outputs = {"csv": d / "unseen.csv", "figure": d / "unseen.png"}
     jobs.prt_unseen(inputs, outputs, {**CFG, "object": "head"}, 1)

@@ -338,12 +338,10 @@ rule prt_momoprt:
 rule prt_evaluate:
     input:
         unpack(prt_evaluation_files),
-        deepprt=prt_variant_files("pt"),
-        onnx=prt_variant_files("onnx"),
-        int8=prt_variant_files("int8.onnx"),
-        momoprt=expand(
-            "results/prt/{{object}}/momoprt_{material}.npz", material=PRT_MATERIALS
-        ),
+        **prt_variant_files("pt"),
+        **prt_variant_files("onnx"),
+        **prt_variant_files("int8.onnx"),
+        **prt_momoprt_files(),
         light=PRT_LIGHT,
     output:
         metrics="results/prt/{object}/metrics.csv",
@@ -374,9 +372,9 @@ rule prt_evaluate:
 rule prt_equal_quality:
     input:
         unpack(prt_test_files),
-        deepprt=prt_variant_files("pt"),
-        onnx=prt_variant_files("onnx"),
-        int8=prt_variant_files("int8.onnx"),
+        **prt_variant_files("pt"),
+        **prt_variant_files("onnx"),
+        **prt_variant_files("int8.onnx"),
         light=PRT_LIGHT,
         frames="results/prt/{object}/metrics_frames.csv",
     output:
@@ -401,28 +399,16 @@ rule prt_equal_quality:
 
 rule prt_model_summary:
     input:
+        **prt_variant_files("pt", PRT_OBJECTS),
+        **prt_variant_files("onnx", PRT_OBJECTS),
+        **prt_variant_files("loss.csv", PRT_OBJECTS),
+        **prt_shipped_summary_files(),
         metrics=expand("results/prt/{object}/metrics.csv", object=PRT_OBJECTS),
         equal_quality=expand(
             "results/prt/{object}/equal_quality.csv", object=PRT_OBJECTS
         ),
         deployment=expand("results/prt/{object}/deployment.csv", object=PRT_OBJECTS)
         + expand("results/prt/{x}/experiment_deployment.csv", x=PRT_EXPERIMENTS),
-        checkpoints=prt_variant_files("pt", PRT_OBJECTS),
-        onnx=prt_variant_files("onnx", PRT_OBJECTS),
-        losses=prt_variant_files("loss.csv", PRT_OBJECTS),
-        shipped=expand(
-            "results/prt/{object}/deepprt_{material}.onnx",
-            object=PRT_OBJECTS,
-            material=PRT_MATERIALS,
-        ),
-        shipped_int8=expand(
-            "results/prt/{object}/deepprt_{material}_int8.onnx",
-            object=PRT_OBJECTS,
-            material=PRT_MATERIALS,
-        ),
-        frames=expand(
-            "results/prt/{object}/{split}", object=PRT_OBJECTS, split=PRT_SPLITS
-        ),
     output:
         metrics=report(
             "results/prt/metrics.csv",
@@ -501,8 +487,8 @@ rule prt_targets:
 rule prt_experiment:
     input:
         unpack(prt_test_files),
-        deepprt=prt_variant_files("pt", materials=["diffuse"]),
-        onnx=prt_variant_files("onnx", materials=["diffuse"]),
+        **prt_variant_files("pt", materials=["diffuse"]),
+        **prt_variant_files("onnx", materials=["diffuse"]),
         momoprt="results/prt/{object}/momoprt_diffuse.npz",
         light=PRT_LIGHT,
     output:
@@ -538,7 +524,9 @@ rule prt_experiment:
 
 rule prt_unseen:
     input:
-        unpack(prt_unseen_models),
+        **prt_variant_files("pt"),
+        **prt_variant_files("onnx"),
+        **prt_momoprt_files(),
         gim="results/prt/{object}/geometry_image.npz",
         seq="results/prt/{object}/sequence.npz",
         light=PRT_LIGHT,

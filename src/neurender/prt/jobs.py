@@ -26,6 +26,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from neurender import io
+from neurender.jobs import input_name
 from neurender.prt import (
     CALIBRATION_FRAMES,
     CHECK_FRAMES,
@@ -153,12 +154,16 @@ def prt_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
 
 
 def _variant_files(
-    variants: list[str], files: list[str], materials: tuple[str, ...] = MATERIALS
+    inputs: dict, kind: str, variants: list[str], materials: tuple[str, ...] = MATERIALS
 ) -> dict:
-    """``(variant, material) -> file`` of a rule's per-variant files (expanded in the
-    order variant, material)."""
-    keys = [(v, m) for v in variants for m in materials]
-    return dict(zip(keys, files, strict=True))
+    """``(variant, material) -> file`` of a rule's per-variant ``kind`` files, named
+    ``input_name(kind, variant, material)``."""
+    return {(v, m): inputs[input_name(kind, v, m)] for v in variants for m in materials}
+
+
+def _momoprt(inputs: dict) -> dict[str, MoMoPRT]:
+    """MoMoPRT's fit of each material (inputs ``input_name("momoprt", material)``)."""
+    return {m: MoMoPRT.load(inputs[input_name("momoprt", m)]) for m in MATERIALS}
 
 
 def _evaluation_scores(
@@ -170,7 +175,7 @@ def _evaluation_scores(
     from neurender.prt.scores import score_frames
 
     name, n_bands = params["object"], params["n_bands"]
-    linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
+    linear = _momoprt(inputs)
     rows, panels = [], {}
     for split in ("val", "test"):
         data = split_frames(inputs, seq, split, n_bands)
@@ -199,12 +204,12 @@ def _networks(
     ONNX files by the same keys; the checkpoints by ``(variant, material)``."""
     from neurender.prt.model import DeepPRT
 
-    checkpoints = _variant_files(params["variants"], inputs["deepprt"])
-    graphs = {"onnx": VARIANTS, "int8": {v: int8_name(m) for v, m in VARIANTS.items()}}
+    checkpoints = _variant_files(inputs, "pt", params["variants"])
+    graphs = {"onnx": VARIANTS, "int8.onnx": {v: int8_name(m) for v, m in VARIANTS.items()}}
     nets, files = {}, {}
-    for key, names in graphs.items():
-        device, pytorch = (params["device"], True) if key == "onnx" else ("cpu", False)
-        for (v, m), onnx_file in _variant_files(params["variants"], inputs[key]).items():
+    for kind, names in graphs.items():
+        device, pytorch = (params["device"], True) if kind == "onnx" else ("cpu", False)
+        for (v, m), onnx_file in _variant_files(inputs, kind, params["variants"]).items():
             files[names[v], m] = onnx_file
             nets[names[v], m] = DeepPRT(checkpoints[v, m], onnx_file, device, threads, pytorch)
     return nets, files, checkpoints
@@ -294,13 +299,17 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     io.write_csv(outputs["equal_quality"], equal)
     deployment = [read_deployment(p) for p in inputs["deployment"]]
     io.write_csv(outputs["deployment"], pd.concat(deployment, ignore_index=True))
-    splits = len(SPLITS)
-    frame_dirs = {o: inputs["frames"][splits * i : splits * (i + 1)] for i, o in enumerate(names)}
-    keys = [(o, VARIANTS[v], m) for o in names for v in variants for m in MATERIALS]
+    frame_dirs = {o: [inputs[input_name("frames", o, s)] for s in SPLITS] for o in names}
+    triples = [(o, v, m) for o in names for v in variants for m in MATERIALS]
+    keys = {(o, VARIANTS[v], m): (o, v, m) for o, v, m in triples}
+
+    def by_key(kind: str) -> dict:
+        return {key: inputs[input_name(kind, *parts)] for key, parts in keys.items()}
+
     compression = summary.compression_rows(
         names,
-        dict(zip(keys, inputs["checkpoints"], strict=True)),
-        dict(zip(keys, inputs["onnx"], strict=True)),
+        by_key("pt"),
+        by_key("onnx"),
         frame_dirs,
         params["resolution"],
         params["n_bands"],
@@ -310,12 +319,12 @@ def prt_model_summary(inputs: dict, outputs: dict, params: dict, threads: int) -
     compression = pd.concat(
         [compression]
         + [
-            summary.shipped_rows(dict(zip(pairs, inputs[key], strict=True)), model)
-            for key, model in (("shipped", shipped), ("shipped_int8", int8_name(shipped)))
+            summary.shipped_rows({p: inputs[input_name(kind, *p)] for p in pairs}, model)
+            for kind, model in (("shipped", shipped), ("shipped_int8", int8_name(shipped)))
         ]
     )
     io.write_csv(outputs["compression"], compression.reset_index(drop=True))
-    figures.loss_figure(dict(zip(keys, inputs["losses"], strict=True)), outputs["loss"])
+    figures.loss_figure(by_key("loss.csv"), outputs["loss"])
     models = [m for v in variants for m in (VARIANTS[v], int8_name(VARIANTS[v]))]
     figures.equal_quality_figure(equal, models, outputs["equal_quality_figure"])
 
@@ -351,10 +360,11 @@ def prt_experiment(inputs: dict, outputs: dict, params: dict, threads: int) -> N
     light = frames.read_sh_light(inputs["light"], params["n_bands"])
     data = split_frames(inputs, seq, "test", params["n_bands"])
     x, label = path_coordinate(name, data)
-    files = zip(params["variants"], inputs["deepprt"], inputs["onnx"], strict=True)
+    checkpoints = _variant_files(inputs, "pt", params["variants"], ("diffuse",))
+    graphs = _variant_files(inputs, "onnx", params["variants"], ("diffuse",))
     nets = {
-        VARIANTS[v]: (DeepPRT(ckpt, onnx, params["device"], threads), onnx)
-        for v, ckpt, onnx in files
+        VARIANTS[v]: (DeepPRT(ckpt, graphs[v, m], params["device"], threads), graphs[v, m])
+        for (v, m), ckpt in checkpoints.items()
     }
     preds = {model: net.predict(data) for model, (net, _) in nets.items()}
     preds["MoMoPRT"] = MoMoPRT.load(inputs["momoprt"]).predict(data)
@@ -402,12 +412,12 @@ def prt_unseen(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     name, n_bands = params["object"], params["n_bands"]
     gim, seq = io.load_npz(inputs["gim"]), io.load_npz(inputs["seq"])
     light = frames.read_sh_light(inputs["light"], n_bands)
-    variant_files = [(v, m) for v in params["variants"] for m in MATERIALS]  # expand()'s order
+    graphs = _variant_files(inputs, "onnx", params["variants"])
     nets = {
-        (VARIANTS[v], m): DeepPRT(ckpt, onnx, params["device"], threads)
-        for (v, m), ckpt, onnx in zip(variant_files, inputs["deepprt"], inputs["onnx"], strict=True)
+        (VARIANTS[v], m): DeepPRT(ckpt, graphs[v, m], params["device"], threads)
+        for (v, m), ckpt in _variant_files(inputs, "pt", params["variants"]).items()
     }
-    linear = {m: MoMoPRT.load(p) for m, p in zip(MATERIALS, inputs["momoprt"], strict=True)}
+    linear = _momoprt(inputs)
     mean = seq["train_positions"].astype(np.float64).mean(0)
     deltas = gim["deltas"]
     families = unseen.families_for(len(deltas) > 0)

@@ -115,5 +115,12 @@ METHOD = Method(
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
-    stage_rules={"data": "simplification_prepare", "train": "simplification_optimise", "summary": "simplification_evaluate", "deploy": "simplification_optimise", "equal_quality": "simplification_evaluate", "targets": "simplification_evaluate"},
+    stage_rules={
+        "data": "simplification_prepare",
+        "train": "simplification_optimise",
+        "summary": "simplification_evaluate",
+        "deploy": "simplification_optimise",
+        "equal_quality": "simplification_evaluate",
+        "targets": "simplification_evaluate",
+    },
 )

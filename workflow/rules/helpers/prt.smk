@@ -1,6 +1,7 @@
 # Helpers of workflow/rules/prt.smk: the names and input files its rules use (their params:
 # neurender.prt.rule_keys).
 
+from neurender.jobs import input_name
 from neurender.prt import (
     EXPERIMENTS,
     MATERIALS as PRT_MATERIALS,
@@ -27,14 +28,27 @@ wildcard_constraints:
 
 def prt_variant_files(kind, objects=None, materials=PRT_MATERIALS):
     """The ``kind`` file (``pt``, ``onnx``, ``int8.onnx`` or ``loss.csv``) of every trained
-    variant, per object (``objects``; ``None``: the rule's own ``{object}`` wildcard) and
-    material, in the order object, variant, material."""
+    variant and material, per object (``objects``; ``None``: the rule's own ``{object}``
+    wildcard), as named inputs (``input_name(kind, [object,] variant, material)``)."""
     suffix = f".{kind}" if kind in ("pt", "onnx") else f"_{kind}"
-    # The rule's own wildcard stays a wildcard: expand() turns {{object}} into {object}.
-    where = {} if objects is None else {"object": objects}
-    folder = "{{object}}" if objects is None else "{object}"
-    path = f"results/prt/{folder}/variants/{{variant}}_{{material}}{suffix}"
-    return expand(path, **where, variant=PRT_VARIANTS, material=materials)
+    pairs = [(v, m) for v in PRT_VARIANTS for m in materials]
+    if objects is None:
+        base = "results/prt/{object}/variants"
+        return {input_name(kind, v, m): f"{base}/{v}_{m}{suffix}" for v, m in pairs}
+    return {
+        input_name(kind, o, v, m): f"results/prt/{o}/variants/{v}_{m}{suffix}"
+        for o in objects
+        for v, m in pairs
+    }
+
+
+def prt_momoprt_files(materials=PRT_MATERIALS):
+    """MoMoPRT's fits of the rule's own ``{object}``, as named inputs
+    (``input_name("momoprt", material)``)."""
+    return {
+        input_name("momoprt", m): f"results/prt/{{object}}/momoprt_{m}.npz"
+        for m in materials
+    }
 
 
 def prt_shipped_files(wildcards):
@@ -48,17 +62,20 @@ def prt_shipped_files(wildcards):
     }
 
 
-def prt_unseen_models(wildcards):
-    """Every variant's network files (variant-major, then material: the job's order) and
-    MoMoPRT's fits, of one object."""
-    base = f"results/prt/{wildcards.object}"
-    variants = config["prt_model"]["variants"]
-    pairs = [(v, m) for v in variants for m in PRT_MATERIALS]
-    return {
-        "deepprt": [f"{base}/variants/{v}_{m}.pt" for v, m in pairs],
-        "onnx": [f"{base}/variants/{v}_{m}.onnx" for v, m in pairs],
-        "momoprt": [f"{base}/momoprt_{m}.npz" for m in PRT_MATERIALS],
-    }
+def prt_shipped_summary_files():
+    """Of every object, as named inputs: the shipped graphs (``input_name("shipped",
+    object, material)``, their int8 forms ``"shipped_int8"``) and the frames of each split
+    (``input_name("frames", object, split)``)."""
+    files = {}
+    for o in PRT_OBJECTS:
+        for m in PRT_MATERIALS:
+            files[input_name("shipped", o, m)] = f"results/prt/{o}/deepprt_{m}.onnx"
+            files[input_name("shipped_int8", o, m)] = (
+                f"results/prt/{o}/deepprt_{m}_int8.onnx"
+            )
+        for split in PRT_SPLITS:
+            files[input_name("frames", o, split)] = f"results/prt/{o}/{split}"
+    return files
 
 
 def prt_probe_source(wildcards):
