@@ -1,4 +1,4 @@
-"""A user asset through the stage's three jobs as the workflow calls them, and a bad asset
+"""A user asset through the stage's jobs as the workflow calls them, and a bad asset
 stopping the first job before it writes anything."""
 
 import numpy as np
@@ -24,15 +24,17 @@ OPTIMISED = {
     "normal": "optimised_normal.png",
     "albedo": "optimised_albedo.png",
     "loss": "loss.csv",
-    **EXPORT_FILES,
 }
+DEPLOYED = {**EXPORT_FILES, "table": "deployment.csv"}
 
 
 def entry(path, **keys):
     return {"path": str(path), "ratio": 0.05, "triangles": None, "views": "all_around", **keys}
 
 
-def test_a_user_asset_runs_through_prepare_optimise_and_evaluate(bumpy_glb, stage_cfg, tmp_path):
+def test_a_user_asset_runs_through_prepare_optimise_deploy_and_evaluate(
+    bumpy_glb, stage_cfg, tmp_path
+):
     case = tmp_path / "bumpy"
     case.mkdir()
     prepared = {k: str(case / v) for k, v in PREPARED.items()}
@@ -43,6 +45,8 @@ def test_a_user_asset_runs_through_prepare_optimise_and_evaluate(bumpy_glb, stag
     optimised = {k: str(case / v) for k, v in OPTIMISED.items()}
     inputs = {**prepared, "initial_albedo": prepared["baked_albedo"]}
     jobs.simplification_optimise(inputs, optimised, {**stage_cfg, "case": "bumpy"}, 1)
+    deployed = {k: str(case / v) for k, v in DEPLOYED.items()}
+    jobs.simplification_deploy({**prepared, **optimised}, deployed, {"case": "bumpy"}, 1)
     evaluated = {
         k: str(tmp_path / f"{k}.{ext}")
         for k, ext in (

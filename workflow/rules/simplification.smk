@@ -1,5 +1,5 @@
 # Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3:
-# reference renders, QEM and classic bakes, optimisation (and its GLB/OBJ export),
+# reference renders, QEM and classic bakes, optimisation, its GLB/OBJ export (deploy),
 # held-out evaluation; built-in cases and the user's assets (simplification.user_assets).
 # Helpers (params and input functions): workflow/rules/helpers/simplification.smk.
 
@@ -43,11 +43,6 @@ rule simplification_optimise:
         train_views="results/simplification/{case}/views_train.csv",
     output:
         mesh="results/simplification/{case}/optimised.npz",
-        glb="results/simplification/{case}/optimised.glb",
-        obj="results/simplification/{case}/optimised.obj",
-        mtl="results/simplification/{case}/optimised.mtl",
-        texture="results/simplification/{case}/optimised_texture.png",
-        normal_texture="results/simplification/{case}/optimised_texture_normal.png",
         normal="results/simplification/{case}/optimised_normal.png",
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
@@ -66,6 +61,38 @@ rule simplification_optimise:
         cfg=rule_params("simplification_optimise"),
     script:
         "../scripts/simplification_optimise.py"
+
+
+rule simplification_deploy:
+    input:
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        mesh="results/simplification/{case}/optimised.npz",
+        normal="results/simplification/{case}/optimised_normal.png",
+        albedo="results/simplification/{case}/optimised_albedo.png",
+    output:
+        glb="results/simplification/{case}/optimised.glb",
+        obj="results/simplification/{case}/optimised.obj",
+        mtl="results/simplification/{case}/optimised.mtl",
+        texture="results/simplification/{case}/optimised_texture.png",
+        normal_texture="results/simplification/{case}/optimised_texture_normal.png",
+        table=report(
+            "results/simplification/{case}/deployment.csv",
+            category="Simplification",
+            labels={"case": "{case}", "table": "deployment"},
+        ),
+    log:
+        "results/logs/simplification_deploy/{case}.log",
+    benchmark:
+        "results/benchmarks/simplification_deploy/{case}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_deploy"),
+    params:
+        cfg=rule_params("simplification_deploy"),
+    script:
+        "../scripts/simplification_deploy.py"
 
 
 rule simplification_evaluate:

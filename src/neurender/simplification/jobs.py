@@ -81,13 +81,14 @@ def simplification_prepare(inputs: dict, outputs: dict, params: dict, threads: i
 
 def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The QEM mesh's vertices and normal map (and, where the colour
-    varies, its albedo map) optimised through Mitsuba against the training references;
-    the result also as GLB and OBJ + MTL + PNGs in the asset's own units. The albedo map
+    varies, its albedo map) optimised through Mitsuba against the training references:
+    the optimised positions (``mesh``), maps and loss (its files as shipped:
+    :func:`simplification_deploy`). The albedo map
     starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
     of their own albedo), else from grey; an asset of uniform albedo (stored with its
     ``lowpoly`` file) keeps it."""
     from neurender.mitsuba_setup import require_mitsuba
-    from neurender.simplification import export, formats, optimise, views
+    from neurender.simplification import formats, optimise, views
 
     case = params["case"]
     mi, dr = require_mitsuba(params["device"])
@@ -118,16 +119,35 @@ def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: 
     formats.write_texture(outputs["albedo"], albedo_map)
     loss.insert(0, "case", case)
     io.write_csv(outputs["loss"], loss)
-    files = {k: outputs[k] for k in ("glb", "obj", "mtl", "texture", "normal_texture")}
-    to_asset = formats.load_to_asset(inputs["lowpoly"])
-    export.export(files, low, positions, albedo_map, normal_map, to_asset)
+
+
+def simplification_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The optimised result of one case (``lowpoly``, ``mesh``, ``normal``, ``albedo``) as
+    its shipped files, GLB and OBJ + MTL + PNGs in the asset's own units (the outputs of
+    :data:`neurender.simplification.EXPORT_FILES`), each read back and checked against
+    the optimised mesh, and the export timed: ``table``
+    (:mod:`neurender.simplification.deploy`)."""
+    from neurender.simplification import deploy, formats
+
+    files = {kind: outputs[kind] for kind in EXPORT_FILES}
+    table = deploy.deploy(
+        params["case"],
+        files,
+        formats.load_lowpoly(inputs["lowpoly"]),
+        io.load_npz(inputs["mesh"])["positions"],
+        formats.read_texture(inputs["albedo"]),
+        formats.read_texture(inputs["normal"]),
+        formats.load_to_asset(inputs["lowpoly"]),
+    )
+    io.write_csv(outputs["table"], table)
 
 
 def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant of every case rendered from its held-out views (for user assets also
-    the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
-    the stage's timings on the job's ``threads`` cores (the workflow's; the optimisation
-    jobs ran with ``params["optimise_threads"]`` each), and the targets."""
+    """Every variant of every case rendered from its held-out views, and ours as shipped
+    (the GLB and OBJ of :func:`simplification_deploy`, read back); the metrics, figures,
+    per-case statistics with the stage's timings on the job's ``threads`` cores (the
+    workflow's; the optimisation jobs ran with ``params["optimise_threads"]`` each), and
+    the targets."""
     from neurender.mitsuba_setup import require_mitsuba
     from neurender.simplification import evaluate, figures, summary
 
@@ -136,11 +156,7 @@ def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: 
     rows, crops = [], {}
     for case in params["cases"]:
         files = {kind: inputs[f"{case}_{kind}"] for kind in CASE_FILES}
-        exports = (
-            {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
-            if case in params["user_assets"]
-            else {}
-        )
+        exports = {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
         case_rows, crops[case] = evaluate.evaluate_case(mi, dr, case, files, params, exports)
         rows += case_rows
     frame = pd.DataFrame(rows)

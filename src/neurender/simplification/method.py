@@ -11,7 +11,7 @@ from typing import Any
 
 from neurender import asset_files, checks
 from neurender.method import Method, ReportInputs, Rule, Units
-from neurender.simplification import CASES, VARIANTS
+from neurender.simplification import CASES, EXPORTED, VARIANTS
 from neurender.simplification import rule_keys as keys
 from neurender.user_paths import UserPath
 
@@ -64,12 +64,20 @@ def _optimise(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return s["steps"] * s["batch"] * s["spp"] * pixels / 1e6, s["texture_size"] ** 2 / 1e4
 
 
+def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The normal map re-expressed texel by texel in glTF's tangent frame, in the export
+    and in each of its two read-backs."""
+    texels = cfg["simplification"]["texture_size"] ** 2
+    return 3 * texels / 1e4, texels / 1e4
+
+
 def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
-    """Every case's variants rendered from the test views."""
+    """Every case's variants and its two shipped files rendered from the test views."""
     s = cfg["simplification"]
     pixels = s["resolution"] ** 2
     cases = max(len(s["cases"]), 1)
-    return cases * len(VARIANTS) * s["test_views"] * s["eval_spp"] * pixels / 1e6, pixels / 1e3
+    renders = cases * (len(VARIANTS) + len(EXPORTED)) * s["test_views"]
+    return renders * s["eval_spp"] * pixels / 1e6, pixels / 1e3
 
 
 def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
@@ -80,11 +88,13 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
 
 
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
-    """The tables, figures (one of meshes per case) and viewers (one per case) of the
-    simplification's report section; nothing when there is no case."""
+    """The tables (each case's deployment table among them), figures (one of meshes per
+    case) and viewers (one per case) of the simplification's report section; nothing when
+    there is no case."""
     section = config["simplification"]
     cases = tuple(section["cases"]) + tuple(section["user_assets"])
     tables = ("targets", "metrics", "stats") if cases else ()
+    tables += tuple(f"{case}/deployment" for case in cases)
     figures = ("comparison", "loss_curves") if cases else ()
     figures += tuple(f"{case}_meshes" for case in cases)
     return ReportInputs(
@@ -110,6 +120,7 @@ METHOD = Method(
     rules={
         "simplification_prepare": Rule(STAGE, _prepare, gpu=True, params=keys.PREPARE),
         "simplification_optimise": Rule(STAGE, _optimise, gpu=True, params=keys.OPTIMISE),
+        "simplification_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
         "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True, params=keys.EVALUATE),
         "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),

@@ -77,6 +77,8 @@ OPTIMISE = (
     "simplification.laplacian_min_fraction",
     wildcard("case"),
 )
+#: The case (the deployment table's rows name it); the export reads no config key.
+DEPLOY = (wildcard("case"),)
 #: The render keys, the cases (the user assets' names: which cases there are, a shape of
 #: the DAG), and the optimisation jobs' threads (the evaluation's own are the workflow's
 #: cores): the stage's time counts each optimisation by its share of the cores.
@@ -90,7 +92,6 @@ EVALUATE = (
         lambda cfg, wc: [*cfg["simplification"]["cases"], *cfg["simplification"]["user_assets"]],
         ("simplification.cases",),
     ),
-    Value("user_assets", lambda cfg, wc: list(cfg["simplification"]["user_assets"]), ()),
     Value(
         "optimise_threads",
         lambda cfg, wc: cfg["simplification"]["threads"],

@@ -36,21 +36,16 @@ def simplification_optimise_inputs(wildcards):
 
 
 def simplification_evaluate_inputs(wildcards):
-    """Every case's files, and the user assets' exported files (read back and rendered),
-    keyed ``<case>_<kind>`` as the evaluation reads them."""
-    files = {
+    """Every case's files and its exported files (simplification_deploy's, read back and
+    rendered), keyed ``<case>_<kind>`` as the evaluation reads them."""
+    return {
         f"{case}_{kind}": f"results/simplification/{case}/{name}"
         for case in SIMPLIFICATION_CASES
-        for kind, name in SIMPLIFICATION_CASE_FILES.items()
+        for kind, name in {
+            **SIMPLIFICATION_CASE_FILES,
+            **SIMPLIFICATION_EXPORT_FILES,
+        }.items()
     }
-    files.update(
-        {
-            f"{case}_{kind}": f"results/simplification/{case}/{name}"
-            for case in SIMPLIFICATION_USER_ASSETS
-            for kind, name in SIMPLIFICATION_EXPORT_FILES.items()
-        }
-    )
-    return files
 
 
 wildcard_constraints:
