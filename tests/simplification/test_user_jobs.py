@@ -47,27 +47,36 @@ def test_a_user_asset_runs_through_prepare_optimise_deploy_and_evaluate(
     jobs.simplification_optimise(inputs, optimised, {**stage_cfg, "case": "bumpy"}, 1)
     deployed = {k: str(case / v) for k, v in DEPLOYED.items()}
     jobs.simplification_deploy({**prepared, **optimised}, deployed, {"case": "bumpy"}, 1)
+    summary = {"stats": str(tmp_path / "stats.csv")}
+    inputs = {"stats": [prepared["stats"]], "losses": [optimised["loss"]]}
+    jobs.simplification_summary(inputs, summary, {}, 1)
+    gathered = pd.read_csv(summary["stats"]).set_index("quantity")["value"]
+    assert gathered["lowpoly_triangles"] == stats["lowpoly_triangles"]
+    loss = pd.read_csv(optimised["loss"])
+    assert gathered["optimise_seconds"] == pytest.approx(loss[loss.metric == "seconds"].value.sum())
     evaluated = {
         k: str(tmp_path / f"{k}.{ext}")
         for k, ext in (
             ("metrics", "csv"),
             ("metrics_views", "csv"),
-            ("targets", "csv"),
-            ("stats", "csv"),
             ("figure", "png"),
             ("loss_figure", "png"),
         )
     }
     files = {f"bumpy_{k}": str(case / v) for k, v in {**CASE_FILES, **EXPORT_FILES}.items()}
-    params = {**stage_cfg, "cases": ["bumpy"], "user_assets": ["bumpy"]}
-    jobs.simplification_evaluate(files, evaluated, params, 1)
+    jobs.simplification_evaluate(files, evaluated, {**stage_cfg, "cases": ["bumpy"]}, 1)
     metrics = pd.read_csv(evaluated["metrics"])
     psnr = metrics[metrics["metric"] == "psnr"].set_index("model")["value"]
     assert set(psnr.index) == {"qem", "baked", "ours", "ours_glb", "ours_obj"}
     assert abs(psnr["ours_glb"] - psnr["ours"]) < 0.1 and abs(psnr["ours_obj"] - psnr["ours"]) < 0.1
-    targets = pd.read_csv(evaluated["targets"])
+    targets = {"targets": str(tmp_path / "targets.csv")}
+    jobs.simplification_targets({"metrics": evaluated["metrics"]}, targets, {}, 1)
+    targets = pd.read_csv(targets["targets"])
+    assert set(targets.subject) == {"bumpy"}
     export_checks = targets[targets["check"].str.startswith("exported")]
     assert len(export_checks) == 2 and export_checks["met"].all()
+    gain = targets[targets["check"].str.startswith("PSNR gain")].measured.iloc[0]
+    assert gain == pytest.approx(psnr["ours"] - psnr["qem"])
 
 
 @pytest.mark.parametrize("problem", ["nan", "budget", "texture"])

@@ -35,6 +35,35 @@ rule simplification_prepare:
         "../scripts/simplification_prepare.py"
 
 
+rule simplification_summary:
+    input:
+        stats=expand(
+            "results/simplification/{case}/stats.csv", case=SIMPLIFICATION_CASES
+        ),
+        losses=expand(
+            "results/simplification/{case}/loss.csv", case=SIMPLIFICATION_CASES
+        ),
+    output:
+        stats=report(
+            "results/simplification/stats.csv",
+            category="Simplification",
+            labels={"table": "statistics"},
+        ),
+    log:
+        "results/logs/simplification_summary/simplification_summary.log",
+    benchmark:
+        "results/benchmarks/simplification_summary/simplification_summary.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_summary"),
+    params:
+        cfg=rule_params("simplification_summary"),
+    script:
+        "../scripts/simplification_summary.py"
+
+
 rule simplification_optimise:
     input:
         unpack(simplification_optimise_inputs),
@@ -105,16 +134,6 @@ rule simplification_evaluate:
             labels={"table": "metrics"},
         ),
         metrics_views="results/simplification/metrics_views.csv",
-        targets=report(
-            "results/simplification/targets.csv",
-            category="Simplification",
-            labels={"table": "targets"},
-        ),
-        stats=report(
-            "results/simplification/stats.csv",
-            category="Simplification",
-            labels={"table": "statistics"},
-        ),
         figure=report(
             "results/simplification/figures/comparison.png",
             category="Simplification",
@@ -138,6 +157,30 @@ rule simplification_evaluate:
         cfg=rule_params("simplification_evaluate"),
     script:
         "../scripts/simplification_evaluate.py"
+
+
+rule simplification_targets:
+    input:
+        metrics="results/simplification/metrics.csv",
+    output:
+        targets=report(
+            "results/simplification/targets.csv",
+            category="Simplification",
+            labels={"table": "targets"},
+        ),
+    log:
+        "results/logs/simplification_targets/simplification_targets.log",
+    benchmark:
+        "results/benchmarks/simplification_targets/simplification_targets.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_targets"),
+    params:
+        cfg=rule_params("simplification_targets"),
+    script:
+        "../scripts/simplification_targets.py"
 
 
 rule simplification_viewer:

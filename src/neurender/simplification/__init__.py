@@ -20,11 +20,11 @@ VARIANTS = ("qem", "baked", "ours")
 #: :data:`VARIANTS`: variant name -> the key of its file in :data:`EXPORT_FILES`.
 EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
 
+#: The files of a case the evaluation reads, by the key it reads them under.
 CASE_FILES = {
     "lowpoly": "lowpoly.npz",
     "baked_normal": "baked_normal.png",
     "baked_albedo": "baked_albedo.png",
-    "stats": "stats.csv",
     "test_views": "views_test.csv",
     "test_images": "reference_test.exr",
     "mesh": "optimised.npz",

@@ -144,14 +144,11 @@ def simplification_deploy(inputs: dict, outputs: dict, params: dict, threads: in
 
 def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every variant of every case rendered from its held-out views, and ours as shipped
-    (the GLB and OBJ of :func:`simplification_deploy`, read back); the metrics, figures,
-    per-case statistics with the stage's timings on the job's ``threads`` cores (the
-    workflow's; the optimisation jobs ran with ``params["optimise_threads"]`` each), and
-    the targets."""
+    (the GLB and OBJ of :func:`simplification_deploy`, read back): the metrics (means over
+    the views, and per view) and the figures (the held-out comparison, the loss curves)."""
     from neurender.mitsuba_setup import require_mitsuba
-    from neurender.simplification import evaluate, figures, summary
+    from neurender.simplification import evaluate, figures
 
-    started = time.perf_counter()
     mi, dr = require_mitsuba(params["device"])
     rows, crops = [], {}
     for case in params["cases"]:
@@ -166,11 +163,26 @@ def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: 
     figures.comparison_figure(crops, outputs["figure"])
     losses = [io.read_csv(inputs[f"{case}_loss"]) for case in params["cases"]]
     figures.loss_figure(losses, outputs["loss_figure"])
-    stats = pd.concat([io.read_csv(inputs[f"{case}_stats"]) for case in params["cases"]])
-    elapsed = time.perf_counter() - started
-    stats = summary.with_timings(stats, losses, elapsed, params["optimise_threads"], threads)
-    io.write_csv(outputs["stats"], stats)
-    io.write_csv(outputs["targets"], summary.targets(frame, stats))
+
+
+def simplification_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every case's statistics (``stats``, each case's preparation's) with its
+    optimisation's seconds (``losses``, the same cases in order) in one table, ``stats``
+    (:func:`neurender.simplification.summary.statistics`)."""
+    from neurender.simplification import summary
+
+    stats = [io.read_csv(path) for path in inputs["stats"]]
+    losses = [io.read_csv(path) for path in inputs["losses"]]
+    io.write_csv(outputs["stats"], summary.statistics(stats, losses))
+
+
+def simplification_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The targets of the held-out ``metrics`` (:func:`neurender.simplification.summary.
+    targets`): results only, no time."""
+    from neurender.simplification import summary
+
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
+    io.write_csv(outputs["targets"], summary.targets(metrics))
 
 
 def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

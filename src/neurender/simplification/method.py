@@ -121,9 +121,12 @@ METHOD = Method(
         "simplification_prepare": Rule(STAGE, _prepare, gpu=True, params=keys.PREPARE),
         "simplification_optimise": Rule(STAGE, _optimise, gpu=True, params=keys.OPTIMISE),
         "simplification_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
+        "simplification_summary": Rule(STAGE),
         "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True, params=keys.EVALUATE),
+        "simplification_targets": Rule(STAGE),
         "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
+    unread_keys=keys.UNREAD,
 )

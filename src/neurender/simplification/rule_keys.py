@@ -79,9 +79,8 @@ OPTIMISE = (
 )
 #: The case (the deployment table's rows name it); the export reads no config key.
 DEPLOY = (wildcard("case"),)
-#: The render keys, the cases (the user assets' names: which cases there are, a shape of
-#: the DAG), and the optimisation jobs' threads (the evaluation's own are the workflow's
-#: cores): the stage's time counts each optimisation by its share of the cores.
+#: The render keys and the cases (the user assets' names: which cases there are, a shape
+#: of the DAG).
 EVALUATE = (
     "seed",
     "device",
@@ -92,12 +91,10 @@ EVALUATE = (
         lambda cfg, wc: [*cfg["simplification"]["cases"], *cfg["simplification"]["user_assets"]],
         ("simplification.cases",),
     ),
-    Value(
-        "optimise_threads",
-        lambda cfg, wc: cfg["simplification"]["threads"],
-        ("simplification.threads",),
-    ),
 )
+#: Keys no job's params hold: the optimisation's Dr.Jit threads are its rule's threads, a
+#: resource, so a change reruns no job (with one thread the result is deterministic).
+UNREAD = ("simplification.threads",)
 #: The keys that rebuild a case's reference (a user asset: its entry), not those that
 #: render it (the viewer and the mesh figure).
 VIEWER = ("seed", *REFERENCE)
