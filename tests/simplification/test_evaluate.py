@@ -2,6 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from neurender import equal_quality as shared
 from neurender.simplification import evaluate, figures, summary
 
 
@@ -41,7 +42,14 @@ def test_targets_compare_ours_with_both_baselines_and_read_no_time():
             {"dataset": "head", "model": model, "metric": "coverage_error", "value": cov},
         ]
     rows.append({"dataset": "head", "model": "ours_glb", "metric": "psnr", "value": 33.45})
-    targets = summary.targets(pd.DataFrame(rows))
+    sweep = pd.DataFrame(
+        {"setting": ["100 triangles", "200 triangles"], "triangles": [100, 200], "psnr": [31, 34]}
+    )
+    ours = {"ours": shared.Network({"psnr": 33.5}, 100.0)}
+    equal = shared.table(
+        "simplification", "head", "classic", sweep, ours, {"psnr": True}, shared.TRIANGLES
+    )
+    targets = summary.targets(pd.DataFrame(rows), equal)
     assert set(targets.subject) == {"head"}  # no stage row: a target reads no time
     measured = targets.set_index("check")["measured"]
     assert measured["PSNR gain over QEM >= 3 dB (measured: dB)"] == 3.5
@@ -49,7 +57,12 @@ def test_targets_compare_ours_with_both_baselines_and_read_no_time():
     assert measured["coverage error below QEM's (measured: ours - QEM)"] == pytest.approx(-0.01)
     glb = "exported GLB re-renders within 0.1 dB of ours (measured: |PSNR difference|, dB)"
     assert measured[glb] == pytest.approx(0.05)
-    assert len(targets) == 4 and targets["met"].all()  # no OBJ row: none was rendered
+    triangles = (
+        "ours at least 1.5x fewer triangles than the cheapest classic QEM + bake of its "
+        "quality (against 200 triangles, within the sweep)"
+    )
+    assert measured[triangles] == 2.0
+    assert len(targets) == 5 and targets["met"].all()  # no OBJ row: none was rendered
 
 
 def test_statistics_add_each_cases_optimisation_seconds_to_its_own():

@@ -69,10 +69,40 @@ def test_a_user_asset_runs_through_prepare_optimise_deploy_and_evaluate(
     psnr = metrics[metrics["metric"] == "psnr"].set_index("model")["value"]
     assert set(psnr.index) == {"qem", "baked", "ours", "ours_glb", "ours_obj"}
     assert abs(psnr["ours_glb"] - psnr["ours"]) < 0.1 and abs(psnr["ours_obj"] - psnr["ours"]) < 0.1
+    equal = {"table": str(tmp_path / "equal_quality.csv"), "figure": str(tmp_path / "eq.png")}
+    sweep = {f"bumpy_{k}": prepared[k] for k in ("test_views", "test_images", "lowpoly")}
+    params = {
+        **stage_cfg,
+        "cases": ["bumpy"],
+        "user_assets": {"bumpy": entry(bumpy_glb)},
+        "equal_quality_multiples": [2, 1],
+    }
+    jobs.simplification_equal_quality({**sweep, "metrics": evaluated["metrics"]}, equal, params, 1)
+    table = pd.read_csv(equal["table"])
+    value = table.set_index(["model", "setting", "metric"])["value"]
+    ours = stats["lowpoly_triangles"]
+    classic = table[table.model == "classic"].pivot_table(
+        index="setting", columns="metric", values="value", sort=False
+    )
+    assert list(classic.multiple) == [1, 2]  # by budget
+    # The 1x budget is the evaluation's baked variant, made and rendered the same way.
+    assert classic.triangles.iloc[0] == ours
+    baked = metrics[metrics.model == "baked"].set_index("metric")["value"]
+    for metric in ("psnr", "ssim", "flip", "coverage_error"):
+        assert classic[metric].iloc[0] == pytest.approx(baked[metric], rel=1e-9)
+    (row,) = table[(table.model == "ours") & (table.metric == "psnr")].itertuples()
+    assert row.value == pytest.approx(psnr["ours"])
+    ratio = value["ours", row.setting, "equal_quality_triangle_ratio"]
+    picked = value["ours", row.setting, "equal_quality_reference_triangles"]
+    assert picked == classic.triangles[row.setting] and ratio == pytest.approx(picked / ours)
     targets = {"targets": str(tmp_path / "targets.csv")}
-    jobs.simplification_targets({"metrics": evaluated["metrics"]}, targets, {}, 1)
+    inputs = {"metrics": evaluated["metrics"], "equal_quality": equal["table"]}
+    jobs.simplification_targets(inputs, targets, {}, 1)
     targets = pd.read_csv(targets["targets"])
     assert set(targets.subject) == {"bumpy"}
+    (triangle_target,) = targets[targets.check.str.contains("fewer triangles")].itertuples()
+    assert triangle_target.measured == pytest.approx(ratio)
+    assert f"(against {row.setting}, {row.bound})" in triangle_target.check
     export_checks = targets[targets["check"].str.startswith("exported")]
     assert len(export_checks) == 2 and export_checks["met"].all()
     gain = targets[targets["check"].str.startswith("PSNR gain")].measured.iloc[0]

@@ -159,9 +159,41 @@ rule simplification_evaluate:
         "../scripts/simplification_evaluate.py"
 
 
+rule simplification_equal_quality:
+    input:
+        unpack(simplification_equal_quality_inputs),
+        metrics="results/simplification/metrics.csv",
+    output:
+        table=report(
+            "results/simplification/equal_quality.csv",
+            category="Simplification",
+            labels={"table": "equal quality"},
+        ),
+        figure=report(
+            "results/simplification/figures/equal_quality.png",
+            category="Simplification",
+            labels={"figure": "equal quality"},
+        ),
+    log:
+        "results/logs/simplification_equal_quality/simplification_equal_quality.log",
+    benchmark:
+        "results/benchmarks/simplification_equal_quality/simplification_equal_quality.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    # Every core, as the evaluation, whose renders it repeats for each budget swept.
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("simplification_equal_quality"),
+    params:
+        cfg=rule_params("simplification_equal_quality"),
+    script:
+        "../scripts/simplification_equal_quality.py"
+
+
 rule simplification_targets:
     input:
         metrics="results/simplification/metrics.csv",
+        equal_quality="results/simplification/equal_quality.csv",
     output:
         targets=report(
             "results/simplification/targets.csv",

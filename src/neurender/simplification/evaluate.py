@@ -69,6 +69,23 @@ def image_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
     }
 
 
+def render_held_out(mi: ModuleType, dr: ModuleType, shape, test_views: list, cfg: dict, label: str):
+    """``shape`` rendered from the held-out ``test_views`` as every variant is (``(N, W, W,
+    4)``): ``cfg``'s ``resolution``, ``eval_spp``, ``intensity`` and seed ``seed +``
+    :data:`EVALUATION_SEED_OFFSET`, the shadow-terminator integrator."""
+    return render.render_views(
+        mi,
+        shape,
+        test_views,
+        cfg["resolution"],
+        cfg["eval_spp"],
+        cfg["intensity"],
+        cfg["seed"] + EVALUATION_SEED_OFFSET,
+        label,
+        terminator.integrator(mi, dr),
+    )
+
+
 def variant_maps(
     variant: str, files: dict
 ) -> tuple[LowPolyMesh, np.ndarray, np.ndarray | float, np.ndarray | None]:
@@ -134,17 +151,7 @@ def evaluate_case(
             if variant in EXPORTED
             else variant_shape(mi, variant, files)
         )
-        renders[variant] = render.render_views(
-            mi,
-            shape,
-            test_views,
-            cfg["resolution"],
-            cfg["eval_spp"],
-            cfg["intensity"],
-            cfg["seed"] + EVALUATION_SEED_OFFSET,
-            f"{case} {variant}",
-            terminator.integrator(mi, dr),
-        )
+        renders[variant] = render_held_out(mi, dr, shape, test_views, cfg, f"{case} {variant}")
         for i, (image, ref) in enumerate(zip(renders[variant], references, strict=True)):
             rows += tidy_rows(
                 "simplification", case, variant, "test", image_metrics(image, ref), view=i

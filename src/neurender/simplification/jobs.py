@@ -165,6 +165,37 @@ def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: 
     figures.loss_figure(losses, outputs["loss_figure"])
 
 
+def simplification_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Ours against the classic QEM + bake at equal quality, in triangles, for every case
+    (:mod:`neurender.simplification.equal_quality`): each case's asset rebuilt from its
+    keys (a user asset from ``params["user_assets"]``), the classic pipeline at
+    ``equal_quality_multiples`` of its budget rendered from its held-out views
+    (``<case>_test_views``, ``<case>_test_images``) and scored; ours' quality from
+    ``metrics`` and its triangles from ``<case>_lowpoly``. The table (``table``, every
+    case's) and the figure (``figure``)."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.simplification import assets, formats, views
+    from neurender.simplification import equal_quality as eq
+
+    mi, dr = require_mitsuba(params["device"])
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
+    tables, sweeps, quality, triangles = [], {}, {}, {}
+    for case in params["cases"]:
+        cfg = {**params, "case": case}
+        if case in params["user_assets"]:
+            cfg["asset"] = params["user_assets"][case]
+        asset = assets.load(case, cfg)
+        test_views = views.views_from_frame(io.read_csv(inputs[f"{case}_test_views"]))
+        references = formats.read_images(inputs[f"{case}_test_images"])
+        sweeps[case] = eq.score_sweep(mi, dr, case, asset, test_views, references, cfg)
+        quality[case] = eq.ours(metrics, case)
+        triangles[case] = len(formats.load_lowpoly(inputs[f"{case}_lowpoly"]).faces)
+        tables.append(eq.table(case, sweeps[case], quality[case], triangles[case]))
+    table = pd.concat(tables, ignore_index=True)
+    io.write_csv(outputs["table"], table)
+    eq.quality_figure(sweeps, quality, triangles, outputs["figure"])
+
+
 def simplification_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """Every case's statistics (``stats``, each case's preparation's) with its
     optimisation's seconds (``losses``, the same cases in order) in one table, ``stats``
@@ -177,12 +208,14 @@ def simplification_summary(inputs: dict, outputs: dict, params: dict, threads: i
 
 
 def simplification_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """The targets of the held-out ``metrics`` (:func:`neurender.simplification.summary.
-    targets`): results only, no time."""
+    """The targets of the held-out ``metrics`` and of the ``equal_quality`` table
+    (:func:`neurender.simplification.summary.targets`): results only, no time."""
     from neurender.simplification import summary
 
     metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
-    io.write_csv(outputs["targets"], summary.targets(metrics))
+    columns = ["method", "dataset", "model", "setting", "bound", "metric", "value"]
+    equal = io.read_csv(inputs["equal_quality"], columns)
+    io.write_csv(outputs["targets"], summary.targets(metrics, equal))
 
 
 def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

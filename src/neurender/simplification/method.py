@@ -80,6 +80,20 @@ def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return renders * s["eval_spp"] * pixels / 1e6, pixels / 1e3
 
 
+def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every case's classic pipeline at each budget swept: its bake and its renders from
+    the test views; and each reference rebuilt."""
+    s = cfg["simplification"]
+    pixels = s["resolution"] ** 2
+    cases = max(len(s["cases"]) + len(s["user_assets"]), 1)
+    settings = cases * len(s["equal_quality_multiples"])
+    rendered = settings * s["test_views"] * s["eval_spp"] * pixels
+    baked = settings * s["texture_size"] ** 2
+    return (rendered + 40 * baked + cases * 40 * _detail(s)) / 1e6, (
+        _detail(s) + s["texture_size"] ** 2
+    ) / 1e4
+
+
 def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
     """The simplification's user files: each asset's mesh (naming its materials and
     textures)."""
@@ -93,9 +107,9 @@ def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
     there is no case."""
     section = config["simplification"]
     cases = tuple(section["cases"]) + tuple(section["user_assets"])
-    tables = ("targets", "metrics", "stats") if cases else ()
+    tables = ("targets", "metrics", "equal_quality", "stats") if cases else ()
     tables += tuple(f"{case}/deployment" for case in cases)
-    figures = ("comparison", "loss_curves") if cases else ()
+    figures = ("comparison", "equal_quality", "loss_curves") if cases else ()
     figures += tuple(f"{case}_meshes" for case in cases)
     return ReportInputs(
         tables=[f"results/simplification/{t}.csv" for t in tables],
@@ -123,6 +137,9 @@ METHOD = Method(
         "simplification_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
         "simplification_summary": Rule(STAGE),
         "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True, params=keys.EVALUATE),
+        "simplification_equal_quality": Rule(
+            STAGE, _equal_quality, gpu=True, params=keys.EQUAL_QUALITY
+        ),
         "simplification_targets": Rule(STAGE),
         "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),

@@ -7,15 +7,20 @@ seconds (the sum of its steps' seconds in its loss CSV); every time in them is o
 measured of itself, none depends on the workflow's core count. The stage's time is a run's
 profile (``benchmarks/run_profile.py``), not a statistic nor a target.
 
-The targets read only results (the held-out metrics), never a time, so a run on other
-cores reruns none of them.
+The targets read only results (the held-out metrics and the equal-quality table), never a
+time, so a run on other cores reruns none of them.
 """
 
 from __future__ import annotations
 
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender.tables import Target, target_table, threshold
+
+#: What the equal-quality targets' sentences call the classic pipeline
+#: (:data:`neurender.simplification.equal_quality.CLASSIC_WORDS`, without its imports).
+CLASSIC_WORDS = "classic QEM + bake"
 
 
 def statistics(stats: list[pd.DataFrame], losses: list[pd.DataFrame]) -> pd.DataFrame:
@@ -33,11 +38,14 @@ def statistics(stats: list[pd.DataFrame], losses: list[pd.DataFrame]) -> pd.Data
     return pd.concat([*stats, pd.DataFrame(optimise)], ignore_index=True)
 
 
-def targets(metrics: pd.DataFrame) -> pd.DataFrame:
+def targets(metrics: pd.DataFrame, equal: pd.DataFrame) -> pd.DataFrame:
     """Per case of the held-out ``metrics`` (columns ``dataset, model, metric, value``): a
-    PSNR gain over QEM, PSNR above the classic bake, a lower coverage error than QEM's, and
-    the shipped GLB's and OBJ's PSNR, read back and rendered, within a tolerance of ours
-    (thresholds from the simplification's ``targets.csv``)."""
+    PSNR gain over QEM, PSNR above the classic bake, a lower coverage error than QEM's, the
+    shipped GLB's and OBJ's PSNR, read back and rendered, within a tolerance of ours, and
+    from the equal-quality table ``equal`` (:mod:`neurender.simplification.equal_quality`)
+    the classic QEM + bake needing at least a threshold times ours' triangles to reach its
+    quality (:func:`neurender.equal_quality.targets`); thresholds from the
+    simplification's ``targets.csv``."""
     mean = metrics.groupby(["dataset", "model", "metric"])["value"].mean()
     gain_db = threshold("simplification", "psnr_gain_db")
     export_db = threshold("simplification", "export_tolerance_db")
@@ -75,4 +83,6 @@ def targets(metrics: pd.DataFrame) -> pd.DataFrame:
                         off <= export_db,
                     )
                 )
+    least = threshold("simplification", "equal_quality_triangle_ratio")
+    rows += shared.targets(equal, least, CLASSIC_WORDS, shared.TRIANGLES)
     return target_table("simplification", rows)
