@@ -78,6 +78,7 @@ NEW_VALUES = {
     "metaballs_scale.user_structures": ["src/neurender/metaballs/structures/1a28.pdb.gz"],
     "metaballs_scale.balls": [10],
     "simplification.cases": ["head"],
+    "simplification.equal_quality_multiples": [1, 3],
     "simplification.user_assets": {
         "crate": {"path": "results/examples/crate.obj", "triangles": 120}
     },
