@@ -159,3 +159,136 @@ def test_a_registered_method_gets_the_reports_equal_quality_table(tmp_path, monk
         "scenes: net at least 10x faster than the cheapest tracer of its quality "
         "(against fine, within the sweep) (measured 4.25)"
     ]
+
+
+# Triangles as the cost (the appearance-driven simplification against the classic QEM +
+# bake): budgets of a mesh of 100 triangles, PSNR better higher, FLIP better lower.
+TRIANGLE_QUALITY = {"psnr": True, "flip": False}
+BUDGETS = pd.DataFrame(
+    [("1x", 100, 30.0, 0.05), ("2x", 199, 33.0, 0.03), ("4x", 401, 35.0, 0.02)],
+    columns=["setting", "triangles", "psnr", "flip"],
+)
+
+
+def test_a_networks_time_row_keeps_its_metrics_in_order():
+    """Time is the default cost: the columns of the NDR, DeepPRT and metaballs tables."""
+    table = _table()
+    assert table.equals(
+        eq.table(
+            "toy",
+            "scenes",
+            "tracer",
+            SWEEP,
+            {
+                "net": eq.Network({"iou": 0.92, "error": 6.0}, 4.0, {"network_ms": 3.0}),
+                "perfect": eq.Network({"iou": 1.0, "error": 0.5}, 2.0),
+            },
+            QUALITY,
+            eq.TIME,
+        )
+    )
+    net = table[table.model == "net"]
+    assert list(net.metric) == [
+        "ms_per_frame",
+        "iou",
+        "error",
+        "network_ms",
+        "equal_quality_reference_ms",
+        "equal_quality_speedup",
+    ]
+
+
+def test_with_triangles_the_pick_is_the_fewest_triangles_reaching_on_every_metric():
+    cost = eq.TRIANGLES
+    assert eq.pick(BUDGETS, {"psnr": 32.0, "flip": 0.04}, TRIANGLE_QUALITY, cost) == eq.Pick(
+        "2x", 199.0, eq.WITHIN
+    )
+    # PSNR reached at 2x, FLIP only at 4x.
+    assert eq.pick(BUDGETS, {"psnr": 32.0, "flip": 0.025}, TRIANGLE_QUALITY, cost).setting == "4x"
+    # The same bounds: none reaching is at least the ratio to the most triangles...
+    assert eq.pick(BUDGETS, {"psnr": 40.0, "flip": 0.01}, TRIANGLE_QUALITY, cost) == eq.Pick(
+        "4x", 401.0, eq.LOWER
+    )
+    # ... and the fewest reaching already is at most the ratio to them.
+    assert eq.pick(BUDGETS, {"psnr": 29.0, "flip": 0.06}, TRIANGLE_QUALITY, cost) == eq.Pick(
+        "1x", 100.0, eq.UPPER
+    )
+    # Not the order listed, the count: a reordered sweep picks the same.
+    assert eq.pick(BUDGETS[::-1], {"psnr": 32.0, "flip": 0.04}, TRIANGLE_QUALITY, cost).setting == (
+        "2x"
+    )
+    with pytest.raises(ValueError, match=r"no column \['triangles'\]"):
+        eq.pick(SWEEP, {"iou": 0.9, "error": 1.0}, QUALITY, cost)
+
+
+def _triangle_table():
+    ours = {
+        "ours": eq.Network({"psnr": 32.0, "flip": 0.04}, 100.0),
+        "sharper": eq.Network({"psnr": 36.0, "flip": 0.01}, 100.0),
+    }
+    return eq.table("simplify", "head", "classic", BUDGETS, ours, TRIANGLE_QUALITY, eq.TRIANGLES)
+
+
+def test_the_triangle_table_names_its_cost_ratio_and_reference():
+    table = _triangle_table()
+    value = table.set_index(["model", "setting", "bound", "metric"])["value"]
+    assert value["classic", "2x", eq.MEASURED, "triangles"] == 199.0
+    assert list(table[table.model == "ours"].metric) == [
+        "triangles",
+        "psnr",
+        "flip",
+        "equal_quality_reference_triangles",
+        "equal_quality_triangle_ratio",
+    ]
+    assert value["ours", "2x", eq.WITHIN, "equal_quality_triangle_ratio"] == pytest.approx(1.99)
+    assert value["ours", "2x", eq.WITHIN, "equal_quality_reference_triangles"] == 199.0
+    assert value["sharper", "4x", eq.LOWER, "equal_quality_triangle_ratio"] == pytest.approx(4.01)
+    assert not set(table.metric) & {eq.SPEEDUP, eq.REFERENCE_MS, "ms_per_frame"}
+
+
+def test_ratios_are_those_of_the_tables_cost_only():
+    triangles, time = _triangle_table(), _table()
+    assert eq.speedups(triangles).empty and eq.ratios(time, eq.TRIANGLES).empty
+    assert list(eq.ratios(triangles, eq.TRIANGLES).ratio) == pytest.approx([1.99, 4.01])
+    both = pd.concat([time, triangles])
+    assert list(eq.ratios(both).ratio) == list(eq.speedups(time).speedup)
+
+
+def test_a_triangle_target_says_fewer_triangles_and_keeps_the_bounds_meaning():
+    found = eq.targets(_triangle_table(), 2.0, "classic QEM + bake", eq.TRIANGLES)
+    assert [(t.subject, t.met) for t in found] == [("head", False), ("head", True)]
+    assert found[0].check == (
+        "ours at least 2x fewer triangles than the cheapest classic QEM + bake of its "
+        "quality (against 2x, within the sweep)"
+    )
+    assert found[1].measured == pytest.approx(4.01) and "4x, lower bound" in found[1].check
+    # An upper bound never meets a target, whatever its ratio.
+    worse = eq.table(
+        "simplify",
+        "head",
+        "classic",
+        BUDGETS,
+        {"ours": eq.Network({"psnr": 29.0, "flip": 0.06}, 50.0)},
+        TRIANGLE_QUALITY,
+        eq.TRIANGLES,
+    )
+    (upper,) = eq.targets(worse, 1.5, "classic", eq.TRIANGLES)
+    assert upper.measured == pytest.approx(2.0) and not upper.met
+    assert "(against 1x, upper bound)" in upper.check
+
+
+def test_the_reports_summary_has_a_table_per_cost(tmp_path, monkeypatch):
+    toy = dataclasses.replace(methods.METHODS[0], key="toy", title="Toy: a registered method")
+    mesh = dataclasses.replace(methods.METHODS[0], key="mesh", title="Mesh: triangles")
+    monkeypatch.setattr(methods, "METHODS", (*methods.METHODS, toy, mesh))
+    paths = [tmp_path / "results" / key / "equal_quality.csv" for key in ("mesh", "toy")]
+    io.write_csv(paths[0], _triangle_table().assign(method="mesh"))
+    io.write_csv(paths[1], _table())
+    html = build.equal_quality_summary(paths)
+    time, triangles = html.split("</table>")[:2]
+    assert "<th>x faster at equal quality</th>" in time and "<th>network</th>" in time
+    assert "<td>4.25x</td>" in time and "<td>Toy</td>" in time
+    assert "<th>x fewer triangles at equal quality</th>" in triangles
+    assert "<th>model</th>" in triangles and "<td>Mesh</td>" in triangles
+    for cell in ("ours", "1.99x", "2x", "&gt;= 4.01x (lower bound)", "4x"):
+        assert f"<td>{cell}</td>" in triangles

@@ -85,7 +85,7 @@ def test_a_networks_side_is_its_shipping_engines_frame_and_its_other_engines(shi
     checkpoint, onnx_file, _ = shipped
     net = DeepPRT(checkpoint, onnx_file, device="cpu")  # ships with ONNX Runtime
     row = network_row(net, {"onnxruntime": 0.002, "pytorch": 0.004}, 0.9, 8.0)
-    assert row.ms_per_frame == 2.0 and row.quality == {"ssim_diffuse": 0.9}
+    assert row.cost == 2.0 and row.quality == {"ssim_diffuse": 0.9}
     assert row.extra["inference_ms_per_frame_pytorch"] == 4.0
     assert row.extra["speedup_vs_reference_gt"] == pytest.approx(8.0 / 0.002)
     assert "inference_ms_per_frame_onnxruntime" not in row.extra

@@ -85,5 +85,4 @@ def stage_cfg():
         lr_final_fraction=0.05,
         laplacian_scale=0.25,
         laplacian_min_fraction=0.02,
-        optimise_threads=1,  # simplification.threads, as the evaluation reads it
     )

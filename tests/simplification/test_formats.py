@@ -54,3 +54,9 @@ def test_view_stacks_and_textures_round_trip(tmp_path):
     texture = np.random.default_rng(2).uniform(0, 1, (16, 16, 3))
     formats.write_texture(tmp_path / "t.png", texture)
     np.testing.assert_allclose(formats.read_texture(tmp_path / "t.png"), texture, atol=0.5 / 65535)
+
+
+def test_a_texture_as_stored_is_what_its_file_reads_back(tmp_path):
+    texture = np.random.default_rng(3).uniform(-0.1, 1.1, (16, 16, 3))
+    formats.write_texture(tmp_path / "t.png", texture)
+    np.testing.assert_array_equal(formats.stored(texture), formats.read_texture(tmp_path / "t.png"))

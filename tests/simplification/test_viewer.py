@@ -56,8 +56,8 @@ def test_the_metaball_reference_carries_the_field_colour_per_vertex():
 
 
 def _simplified(bumpy_glb, cfg, tmp):
-    """The bumpy user asset through prepare, optimise and evaluate: its files, the mean
-    metrics table and the params of the viewer jobs."""
+    """The bumpy user asset through prepare, optimise, deploy and evaluate: its files, the
+    mean metrics table and the params of the viewer jobs."""
     case = tmp / "bumpy"
     entry = {"path": str(bumpy_glb), "ratio": 0.05, "triangles": None, "views": "all_around"}
     files = {k: str(case / v) for k, v in {**CASE_FILES, **EXPORT_FILES}.items()}
@@ -65,17 +65,18 @@ def _simplified(bumpy_glb, cfg, tmp):
         "train_images": str(case / "reference_train.exr"),
         "train_views": str(case / "views_train.csv"),
     } | {k: files[k] for k in ("test_images", "test_views", "lowpoly", "baked_normal")}
-    prepared |= {k: files[k] for k in ("baked_albedo", "stats")}
+    prepared |= {"baked_albedo": files["baked_albedo"], "stats": str(case / "stats.csv")}
     params = {**cfg, "case": "bumpy", "asset": entry}
     jobs.simplification_prepare({"asset": str(bumpy_glb)}, prepared, params, 1)
-    optimised = {k: files[k] for k in ("mesh", "normal", "albedo", "loss", *EXPORT_FILES)}
+    optimised = {k: files[k] for k in ("mesh", "normal", "albedo", "loss")}
     inputs = {**prepared, "initial_albedo": files["baked_albedo"]}
     jobs.simplification_optimise(inputs, optimised, {**cfg, "case": "bumpy"}, 1)
-    evaluated = {k: str(tmp / f"{k}.csv") for k in ("metrics", "metrics_views", "targets", "stats")}
+    deployed = {**{k: files[k] for k in EXPORT_FILES}, "table": str(case / "deployment.csv")}
+    jobs.simplification_deploy({**prepared, **optimised}, deployed, {"case": "bumpy"}, 1)
+    evaluated = {k: str(tmp / f"{k}.csv") for k in ("metrics", "metrics_views")}
     evaluated |= {"figure": str(tmp / "c.png"), "loss_figure": str(tmp / "l.png")}
     keyed = {f"bumpy_{k}": v for k, v in files.items()}
-    params = {**cfg, "cases": ["bumpy"], "user_assets": ["bumpy"]}
-    jobs.simplification_evaluate(keyed, evaluated, params, 1)
+    jobs.simplification_evaluate(keyed, evaluated, {**cfg, "cases": ["bumpy"]}, 1)
     return files, evaluated["metrics"], {"seed": cfg["seed"], "case": "bumpy", "asset": entry}
 
 

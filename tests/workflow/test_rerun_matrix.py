@@ -78,6 +78,7 @@ NEW_VALUES = {
     "metaballs_scale.user_structures": ["src/neurender/metaballs/structures/1a28.pdb.gz"],
     "metaballs_scale.balls": [10],
     "simplification.cases": ["head"],
+    "simplification.equal_quality_multiples": [1, 3],
     "simplification.user_assets": {
         "crate": {"path": "results/examples/crate.obj", "triangles": 120}
     },
@@ -301,3 +302,28 @@ def test_every_shipped_graph_is_written_by_a_deploy_rule():
             graphs = [f for f in inputs if f.endswith(".onnx")]
             assert len(graphs) == len([f for f in outputs if f.endswith(".onnx")]) > 0
             assert all(made_by[f].endswith("_deploy") for f in graphs), (rule, graphs)
+
+
+#: Rules that write the example assets the configs run on (a user's kind of input files, made
+#: by third-party tools), not an export of a result.
+EXAMPLES = {"example_assets"}
+
+
+def test_every_exported_mesh_is_written_by_a_deploy_rule():
+    """A simplified asset becomes the files it ships as (GLB, OBJ) in its method's deploy
+    rule, as a network becomes its ONNX graph: a change to the export reruns the deploy job
+    and what reads the files (the evaluation renders them), not the optimisation; only the
+    example assets (:data:`EXAMPLES`, inputs) are meshes written elsewhere."""
+    with smoke_dag({}) as workflow:
+        made_by = {
+            str(f): job.rule.name
+            for job in workflow.dag.jobs
+            for f in job.output
+            if str(f).endswith((".glb", ".obj"))
+        }
+        cases = workflow.globals["SIMPLIFICATION_CASES"]
+    for case in cases:
+        for name in ("optimised.glb", "optimised.obj"):
+            assert made_by[f"results/simplification/{case}/{name}"] == "simplification_deploy"
+    elsewhere = {f: r for f, r in made_by.items() if not r.endswith("_deploy")}
+    assert set(elsewhere.values()) <= EXAMPLES, elsewhere

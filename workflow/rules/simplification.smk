@@ -1,5 +1,5 @@
 # Appearance-driven simplification (Hasselgren et al. 2021) through Mitsuba 3:
-# reference renders, QEM and classic bakes, optimisation (and its GLB/OBJ export),
+# reference renders, QEM and classic bakes, optimisation, its GLB/OBJ export (deploy),
 # held-out evaluation; built-in cases and the user's assets (simplification.user_assets).
 # Helpers (params and input functions): workflow/rules/helpers/simplification.smk.
 
@@ -35,6 +35,35 @@ rule simplification_prepare:
         "../scripts/simplification_prepare.py"
 
 
+rule simplification_summary:
+    input:
+        stats=expand(
+            "results/simplification/{case}/stats.csv", case=SIMPLIFICATION_CASES
+        ),
+        losses=expand(
+            "results/simplification/{case}/loss.csv", case=SIMPLIFICATION_CASES
+        ),
+    output:
+        stats=report(
+            "results/simplification/stats.csv",
+            category="Simplification",
+            labels={"table": "statistics"},
+        ),
+    log:
+        "results/logs/simplification_summary/simplification_summary.log",
+    benchmark:
+        "results/benchmarks/simplification_summary/simplification_summary.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_summary"),
+    params:
+        cfg=rule_params("simplification_summary"),
+    script:
+        "../scripts/simplification_summary.py"
+
+
 rule simplification_optimise:
     input:
         unpack(simplification_optimise_inputs),
@@ -43,11 +72,6 @@ rule simplification_optimise:
         train_views="results/simplification/{case}/views_train.csv",
     output:
         mesh="results/simplification/{case}/optimised.npz",
-        glb="results/simplification/{case}/optimised.glb",
-        obj="results/simplification/{case}/optimised.obj",
-        mtl="results/simplification/{case}/optimised.mtl",
-        texture="results/simplification/{case}/optimised_texture.png",
-        normal_texture="results/simplification/{case}/optimised_texture_normal.png",
         normal="results/simplification/{case}/optimised_normal.png",
         albedo="results/simplification/{case}/optimised_albedo.png",
         loss="results/simplification/{case}/loss.csv",
@@ -68,6 +92,38 @@ rule simplification_optimise:
         "../scripts/simplification_optimise.py"
 
 
+rule simplification_deploy:
+    input:
+        lowpoly="results/simplification/{case}/lowpoly.npz",
+        mesh="results/simplification/{case}/optimised.npz",
+        normal="results/simplification/{case}/optimised_normal.png",
+        albedo="results/simplification/{case}/optimised_albedo.png",
+    output:
+        glb="results/simplification/{case}/optimised.glb",
+        obj="results/simplification/{case}/optimised.obj",
+        mtl="results/simplification/{case}/optimised.mtl",
+        texture="results/simplification/{case}/optimised_texture.png",
+        normal_texture="results/simplification/{case}/optimised_texture_normal.png",
+        table=report(
+            "results/simplification/{case}/deployment.csv",
+            category="Simplification",
+            labels={"case": "{case}", "table": "deployment"},
+        ),
+    log:
+        "results/logs/simplification_deploy/{case}.log",
+    benchmark:
+        "results/benchmarks/simplification_deploy/{case}.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_deploy"),
+    params:
+        cfg=rule_params("simplification_deploy"),
+    script:
+        "../scripts/simplification_deploy.py"
+
+
 rule simplification_evaluate:
     input:
         unpack(simplification_evaluate_inputs),
@@ -78,16 +134,6 @@ rule simplification_evaluate:
             labels={"table": "metrics"},
         ),
         metrics_views="results/simplification/metrics_views.csv",
-        targets=report(
-            "results/simplification/targets.csv",
-            category="Simplification",
-            labels={"table": "targets"},
-        ),
-        stats=report(
-            "results/simplification/stats.csv",
-            category="Simplification",
-            labels={"table": "statistics"},
-        ),
         figure=report(
             "results/simplification/figures/comparison.png",
             category="Simplification",
@@ -111,6 +157,62 @@ rule simplification_evaluate:
         cfg=rule_params("simplification_evaluate"),
     script:
         "../scripts/simplification_evaluate.py"
+
+
+rule simplification_equal_quality:
+    input:
+        unpack(simplification_equal_quality_inputs),
+        metrics="results/simplification/metrics.csv",
+    output:
+        table=report(
+            "results/simplification/equal_quality.csv",
+            category="Simplification",
+            labels={"table": "equal quality"},
+        ),
+        figure=report(
+            "results/simplification/figures/equal_quality.png",
+            category="Simplification",
+            labels={"figure": "equal quality"},
+        ),
+    log:
+        "results/logs/simplification_equal_quality/simplification_equal_quality.log",
+    benchmark:
+        "results/benchmarks/simplification_equal_quality/simplification_equal_quality.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    # Every core, as the evaluation, whose renders it repeats for each budget swept.
+    threads: workflow.cores
+    resources:
+        **scheduler_resources("simplification_equal_quality"),
+    params:
+        cfg=rule_params("simplification_equal_quality"),
+    script:
+        "../scripts/simplification_equal_quality.py"
+
+
+rule simplification_targets:
+    input:
+        metrics="results/simplification/metrics.csv",
+        equal_quality="results/simplification/equal_quality.csv",
+    output:
+        targets=report(
+            "results/simplification/targets.csv",
+            category="Simplification",
+            labels={"table": "targets"},
+        ),
+    log:
+        "results/logs/simplification_targets/simplification_targets.log",
+    benchmark:
+        "results/benchmarks/simplification_targets/simplification_targets.tsv"
+    conda:
+        "../envs/neurender.yaml"
+    threads: 1
+    resources:
+        **scheduler_resources("simplification_targets"),
+    params:
+        cfg=rule_params("simplification_targets"),
+    script:
+        "../scripts/simplification_targets.py"
 
 
 rule simplification_viewer:

@@ -302,7 +302,7 @@ def quality_figure(
                 label=f"cheapest of its DSSIM ({chosen.setting})",
             )
         ratio = float(train["ms_per_frame"].iloc[0]) / ms
-        equal = shared.stated(chosen.ms_per_frame / ms, chosen.bound)
+        equal = shared.stated(chosen.cost / ms, chosen.bound)
         titles.append(f"{graph} {ratio:.2g}x at {training_spp} spp, {equal} at equal DSSIM")
     ax.set_xscale("log")
     ax.set_yscale("log")

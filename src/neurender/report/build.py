@@ -280,29 +280,36 @@ def deployment_summary(tables: Sequence[Path]) -> dict | None:
 
 
 def equal_quality_summary(tables: Sequence[Path]) -> str:
-    """The summary's equal-quality table (HTML, "" when no method has one): every network
+    """The summary's equal-quality tables (HTML, "" when no method has one): every network
     of every method's ``results/<method>/equal_quality.csv`` among ``tables`` (methods in
-    report order, :mod:`neurender.equal_quality`'s rows), its speed-up over the fastest
+    report order, :mod:`neurender.equal_quality`'s rows), its ratio to the cheapest
     setting of its reference renderer that reaches its quality, stated with its bound,
-    and that setting."""
+    and that setting; one table per cost (:data:`neurender.equal_quality.COSTS`: the
+    speed-ups, the triangle ratios), each headed by what it counts."""
     files = [t for t in tables if (key := _method_of(t)) and table_name(t, key) == "equal_quality"]
     if not files:
         return ""
     order = {m.key: i for i, m in enumerate(methods.METHODS)}
     files.sort(key=lambda t: order[_method_of(t)])
-    rows = pd.concat([equal_quality.speedups(io.read_csv(f)) for f in files], ignore_index=True)
-    shown = pd.DataFrame(
-        {
-            "method": rows.method.map(_short_title),
-            "dataset": rows.dataset.map(html.escape),
-            "network": rows.model.map(html.escape),
-            "x faster at equal quality": [
-                html.escape(equal_quality.stated(r.speedup, r.bound)) for r in rows.itertuples()
-            ],
-            "against": rows.setting.map(html.escape),
-        }
-    )
-    return _table_html(shown)
+    frames = [io.read_csv(f) for f in files]
+    parts = []
+    for cost in equal_quality.COSTS:
+        rows = pd.concat([equal_quality.ratios(f, cost) for f in frames], ignore_index=True)
+        if rows.empty:
+            continue
+        shown = pd.DataFrame(
+            {
+                "method": rows.method.map(_short_title),
+                "dataset": rows.dataset.map(html.escape),
+                cost.subject: rows.model.map(html.escape),
+                f"x {cost.cheaper} at equal quality": [
+                    html.escape(equal_quality.stated(r.ratio, r.bound)) for r in rows.itertuples()
+                ],
+                "against": rows.setting.map(html.escape),
+            }
+        )
+        parts.append(_table_html(shown))
+    return "\n".join(parts)
 
 
 def _viewer(path: Path, index: int) -> dict:

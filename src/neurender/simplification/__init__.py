@@ -16,11 +16,15 @@ CASES = ("head", "metaballs")
 #: a QEM decimation, the decimation with baked textures, and ours (optimised).
 VARIANTS = ("qem", "baked", "ours")
 
+#: Ours as shipped, read back from its exported files and rendered by the evaluation beside
+#: :data:`VARIANTS`: variant name -> the key of its file in :data:`EXPORT_FILES`.
+EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
+
+#: The files of a case the evaluation reads, by the key it reads them under.
 CASE_FILES = {
     "lowpoly": "lowpoly.npz",
     "baked_normal": "baked_normal.png",
     "baked_albedo": "baked_albedo.png",
-    "stats": "stats.csv",
     "test_views": "views_test.csv",
     "test_images": "reference_test.exr",
     "mesh": "optimised.npz",
@@ -29,8 +33,8 @@ CASE_FILES = {
     "loss": "loss.csv",
 }
 
-#: The exported files of a case (written by the optimisation, read back by the evaluation
-#: for user assets): the GLB and the OBJ, each with the files it names beside it.
+#: The exported files of a case (written by its deploy job, read back and rendered by the
+#: evaluation): the GLB and the OBJ, each with the files it names beside it.
 EXPORT_FILES = {
     "glb": "optimised.glb",
     "obj": "optimised.obj",

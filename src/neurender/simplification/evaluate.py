@@ -10,8 +10,11 @@ LDR mode, lower is better); plus the silhouette coverage error: pixels covered
 pixels (Fig. 5, top). Variants, at the same triangle count and texture size: ``qem``
 (decimated mesh with the reference's material, baked classically where it has colours),
 ``baked`` (plus a classically baked normal map) and ``ours`` (optimised through Mitsuba).
-For user assets also ``ours_glb`` and ``ours_obj``: ours as exported and read back
-(:func:`neurender.simplification.export.reimport`), rendered the same way.
+Also ``ours_glb`` and ``ours_obj``: ours as shipped (the deploy stage's files,
+:mod:`neurender.simplification.deploy`) read back
+(:func:`neurender.simplification.export.reimport`) and rendered the same way, which checks
+what the deploy stage's read-back does not: the textures and the normal map's tangent
+frame.
 """
 
 from __future__ import annotations
@@ -24,15 +27,21 @@ import torch
 
 from neurender import io, metrics
 from neurender.display import srgb
-from neurender.simplification import VARIANTS, export, formats, render, terminator, views
+from neurender.simplification import (
+    EXPORTED,
+    VARIANTS,
+    export,
+    formats,
+    render,
+    terminator,
+    views,
+)
 from neurender.simplification.mesh_ops import LowPolyMesh
 from neurender.tables import tidy_rows
 
 #: Every variant is rendered with seed ``seed + EVALUATION_SEED_OFFSET`` (a prime): the
 #: same noise for each, independent of the references' (:mod:`neurender.simplification.assets`).
 EVALUATION_SEED_OFFSET = 104729
-#: Exported files read back and rendered, by variant name (user assets).
-EXPORTED = {"ours_glb": "glb", "ours_obj": "obj"}
 
 
 def coverage_error(alpha: np.ndarray, reference_alpha: np.ndarray) -> tuple[float, float]:
@@ -58,6 +67,23 @@ def image_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
         "flip": float(flip),
         "coverage_error": extra + missing,
     }
+
+
+def render_held_out(mi: ModuleType, dr: ModuleType, shape, test_views: list, cfg: dict, label: str):
+    """``shape`` rendered from the held-out ``test_views`` as every variant is (``(N, W, W,
+    4)``): ``cfg``'s ``resolution``, ``eval_spp``, ``intensity`` and seed ``seed +``
+    :data:`EVALUATION_SEED_OFFSET`, the shadow-terminator integrator."""
+    return render.render_views(
+        mi,
+        shape,
+        test_views,
+        cfg["resolution"],
+        cfg["eval_spp"],
+        cfg["intensity"],
+        cfg["seed"] + EVALUATION_SEED_OFFSET,
+        label,
+        terminator.integrator(mi, dr),
+    )
 
 
 def variant_maps(
@@ -125,17 +151,7 @@ def evaluate_case(
             if variant in EXPORTED
             else variant_shape(mi, variant, files)
         )
-        renders[variant] = render.render_views(
-            mi,
-            shape,
-            test_views,
-            cfg["resolution"],
-            cfg["eval_spp"],
-            cfg["intensity"],
-            cfg["seed"] + EVALUATION_SEED_OFFSET,
-            f"{case} {variant}",
-            terminator.integrator(mi, dr),
-        )
+        renders[variant] = render_held_out(mi, dr, shape, test_views, cfg, f"{case} {variant}")
         for i, (image, ref) in enumerate(zip(renders[variant], references, strict=True)):
             rows += tidy_rows(
                 "simplification", case, variant, "test", image_metrics(image, ref), view=i

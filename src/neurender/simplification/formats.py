@@ -90,6 +90,12 @@ def write_texture(path: str | Path, texture: np.ndarray) -> None:
     io.write_png(path, np.round(np.clip(texture, 0, 1) * 65535).astype(np.uint16))
 
 
+def stored(texture: np.ndarray) -> np.ndarray:
+    """A ``(T, T, 3)`` texture as :func:`write_texture` stores it and :func:`read_texture`
+    reads it back (clipped to [0, 1], 16-bit), without the file."""
+    return np.round(np.clip(texture, 0, 1) * 65535).astype(np.uint16).astype(np.float64) / 65535.0
+
+
 def read_texture(path: str | Path) -> np.ndarray:
     """A texture written by :func:`write_texture` as ``(T, T, 3)`` float64 in [0, 1]."""
     return io.read_png(path)[..., :3].astype(np.float64) / 65535.0

@@ -81,13 +81,14 @@ def simplification_prepare(inputs: dict, outputs: dict, params: dict, threads: i
 
 def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
     """The QEM mesh's vertices and normal map (and, where the colour
-    varies, its albedo map) optimised through Mitsuba against the training references;
-    the result also as GLB and OBJ + MTL + PNGs in the asset's own units. The albedo map
+    varies, its albedo map) optimised through Mitsuba against the training references:
+    the optimised positions (``mesh``), maps and loss (its files as shipped:
+    :func:`simplification_deploy`). The albedo map
     starts from ``inputs["initial_albedo"]`` where given (user assets: the classic bake
     of their own albedo), else from grey; an asset of uniform albedo (stored with its
     ``lowpoly`` file) keeps it."""
     from neurender.mitsuba_setup import require_mitsuba
-    from neurender.simplification import export, formats, optimise, views
+    from neurender.simplification import formats, optimise, views
 
     case = params["case"]
     mi, dr = require_mitsuba(params["device"])
@@ -118,29 +119,41 @@ def simplification_optimise(inputs: dict, outputs: dict, params: dict, threads: 
     formats.write_texture(outputs["albedo"], albedo_map)
     loss.insert(0, "case", case)
     io.write_csv(outputs["loss"], loss)
-    files = {k: outputs[k] for k in ("glb", "obj", "mtl", "texture", "normal_texture")}
-    to_asset = formats.load_to_asset(inputs["lowpoly"])
-    export.export(files, low, positions, albedo_map, normal_map, to_asset)
+
+
+def simplification_deploy(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The optimised result of one case (``lowpoly``, ``mesh``, ``normal``, ``albedo``) as
+    its shipped files, GLB and OBJ + MTL + PNGs in the asset's own units (the outputs of
+    :data:`neurender.simplification.EXPORT_FILES`), each read back and checked against
+    the optimised mesh, and the export timed: ``table``
+    (:mod:`neurender.simplification.deploy`)."""
+    from neurender.simplification import deploy, formats
+
+    files = {kind: outputs[kind] for kind in EXPORT_FILES}
+    table = deploy.deploy(
+        params["case"],
+        files,
+        formats.load_lowpoly(inputs["lowpoly"]),
+        io.load_npz(inputs["mesh"])["positions"],
+        formats.read_texture(inputs["albedo"]),
+        formats.read_texture(inputs["normal"]),
+        formats.load_to_asset(inputs["lowpoly"]),
+    )
+    io.write_csv(outputs["table"], table)
 
 
 def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
-    """Every variant of every case rendered from its held-out views (for user assets also
-    the exported GLB and OBJ, read back); the metrics, figures, per-case statistics with
-    the stage's timings on the job's ``threads`` cores (the workflow's; the optimisation
-    jobs ran with ``params["optimise_threads"]`` each), and the targets."""
+    """Every variant of every case rendered from its held-out views, and ours as shipped
+    (the GLB and OBJ of :func:`simplification_deploy`, read back): the metrics (means over
+    the views, and per view) and the figures (the held-out comparison, the loss curves)."""
     from neurender.mitsuba_setup import require_mitsuba
-    from neurender.simplification import evaluate, figures, summary
+    from neurender.simplification import evaluate, figures
 
-    started = time.perf_counter()
     mi, dr = require_mitsuba(params["device"])
     rows, crops = [], {}
     for case in params["cases"]:
         files = {kind: inputs[f"{case}_{kind}"] for kind in CASE_FILES}
-        exports = (
-            {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
-            if case in params["user_assets"]
-            else {}
-        )
+        exports = {kind: inputs[f"{case}_{kind}"] for kind in EXPORT_FILES}
         case_rows, crops[case] = evaluate.evaluate_case(mi, dr, case, files, params, exports)
         rows += case_rows
     frame = pd.DataFrame(rows)
@@ -150,11 +163,59 @@ def simplification_evaluate(inputs: dict, outputs: dict, params: dict, threads: 
     figures.comparison_figure(crops, outputs["figure"])
     losses = [io.read_csv(inputs[f"{case}_loss"]) for case in params["cases"]]
     figures.loss_figure(losses, outputs["loss_figure"])
-    stats = pd.concat([io.read_csv(inputs[f"{case}_stats"]) for case in params["cases"]])
-    elapsed = time.perf_counter() - started
-    stats = summary.with_timings(stats, losses, elapsed, params["optimise_threads"], threads)
-    io.write_csv(outputs["stats"], stats)
-    io.write_csv(outputs["targets"], summary.targets(frame, stats))
+
+
+def simplification_equal_quality(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Ours against the classic QEM + bake at equal quality, in triangles, for every case
+    (:mod:`neurender.simplification.equal_quality`): each case's asset rebuilt from its
+    keys (a user asset from ``params["user_assets"]``), the classic pipeline at
+    ``equal_quality_multiples`` of its budget rendered from its held-out views
+    (``<case>_test_views``, ``<case>_test_images``) and scored; ours' quality from
+    ``metrics`` and its triangles from ``<case>_lowpoly``. The table (``table``, every
+    case's) and the figure (``figure``)."""
+    from neurender.mitsuba_setup import require_mitsuba
+    from neurender.simplification import assets, formats, views
+    from neurender.simplification import equal_quality as eq
+
+    mi, dr = require_mitsuba(params["device"])
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
+    tables, sweeps, quality, triangles = [], {}, {}, {}
+    for case in params["cases"]:
+        cfg = {**params, "case": case}
+        if case in params["user_assets"]:
+            cfg["asset"] = params["user_assets"][case]
+        asset = assets.load(case, cfg)
+        test_views = views.views_from_frame(io.read_csv(inputs[f"{case}_test_views"]))
+        references = formats.read_images(inputs[f"{case}_test_images"])
+        sweeps[case] = eq.score_sweep(mi, dr, case, asset, test_views, references, cfg)
+        quality[case] = eq.ours(metrics, case)
+        triangles[case] = len(formats.load_lowpoly(inputs[f"{case}_lowpoly"]).faces)
+        tables.append(eq.table(case, sweeps[case], quality[case], triangles[case]))
+    table = pd.concat(tables, ignore_index=True)
+    io.write_csv(outputs["table"], table)
+    eq.quality_figure(sweeps, quality, triangles, outputs["figure"])
+
+
+def simplification_summary(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """Every case's statistics (``stats``, each case's preparation's) with its
+    optimisation's seconds (``losses``, the same cases in order) in one table, ``stats``
+    (:func:`neurender.simplification.summary.statistics`)."""
+    from neurender.simplification import summary
+
+    stats = [io.read_csv(path) for path in inputs["stats"]]
+    losses = [io.read_csv(path) for path in inputs["losses"]]
+    io.write_csv(outputs["stats"], summary.statistics(stats, losses))
+
+
+def simplification_targets(inputs: dict, outputs: dict, params: dict, threads: int) -> None:
+    """The targets of the held-out ``metrics`` and of the ``equal_quality`` table
+    (:func:`neurender.simplification.summary.targets`): results only, no time."""
+    from neurender.simplification import summary
+
+    metrics = io.read_csv(inputs["metrics"], ["dataset", "model", "metric", "value"])
+    columns = ["method", "dataset", "model", "setting", "bound", "metric", "value"]
+    equal = io.read_csv(inputs["equal_quality"], columns)
+    io.write_csv(outputs["targets"], summary.targets(metrics, equal))
 
 
 def simplification_viewer(inputs: dict, outputs: dict, params: dict, threads: int) -> None:

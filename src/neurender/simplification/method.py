@@ -11,7 +11,7 @@ from typing import Any
 
 from neurender import asset_files, checks
 from neurender.method import Method, ReportInputs, Rule, Units
-from neurender.simplification import CASES, VARIANTS
+from neurender.simplification import CASES, EXPORTED, VARIANTS
 from neurender.simplification import rule_keys as keys
 from neurender.user_paths import UserPath
 
@@ -64,12 +64,34 @@ def _optimise(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
     return s["steps"] * s["batch"] * s["spp"] * pixels / 1e6, s["texture_size"] ** 2 / 1e4
 
 
+def _deploy(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """The normal map re-expressed texel by texel in glTF's tangent frame, in the export
+    and in each of its two read-backs."""
+    texels = cfg["simplification"]["texture_size"] ** 2
+    return 3 * texels / 1e4, texels / 1e4
+
+
 def _evaluate(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
-    """Every case's variants rendered from the test views."""
+    """Every case's variants and its two shipped files rendered from the test views."""
     s = cfg["simplification"]
     pixels = s["resolution"] ** 2
     cases = max(len(s["cases"]), 1)
-    return cases * len(VARIANTS) * s["test_views"] * s["eval_spp"] * pixels / 1e6, pixels / 1e3
+    renders = cases * (len(VARIANTS) + len(EXPORTED)) * s["test_views"]
+    return renders * s["eval_spp"] * pixels / 1e6, pixels / 1e3
+
+
+def _equal_quality(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> Units:
+    """Every case's classic pipeline at each budget swept: its bake and its renders from
+    the test views; and each reference rebuilt."""
+    s = cfg["simplification"]
+    pixels = s["resolution"] ** 2
+    cases = max(len(s["cases"]) + len(s["user_assets"]), 1)
+    settings = cases * len(s["equal_quality_multiples"])
+    rendered = settings * s["test_views"] * s["eval_spp"] * pixels
+    baked = settings * s["texture_size"] ** 2
+    return (rendered + 40 * baked + cases * 40 * _detail(s)) / 1e6, (
+        _detail(s) + s["texture_size"] ** 2
+    ) / 1e4
 
 
 def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
@@ -80,12 +102,14 @@ def user_paths(config: Mapping[str, Any]) -> Iterator[UserPath]:
 
 
 def report_inputs(config: Mapping[str, Any]) -> ReportInputs:
-    """The tables, figures (one of meshes per case) and viewers (one per case) of the
-    simplification's report section; nothing when there is no case."""
+    """The tables (each case's deployment table among them), figures (one of meshes per
+    case) and viewers (one per case) of the simplification's report section; nothing when
+    there is no case."""
     section = config["simplification"]
     cases = tuple(section["cases"]) + tuple(section["user_assets"])
-    tables = ("targets", "metrics", "stats") if cases else ()
-    figures = ("comparison", "loss_curves") if cases else ()
+    tables = ("targets", "metrics", "equal_quality", "stats") if cases else ()
+    tables += tuple(f"{case}/deployment" for case in cases)
+    figures = ("comparison", "equal_quality", "loss_curves") if cases else ()
     figures += tuple(f"{case}_meshes" for case in cases)
     return ReportInputs(
         tables=[f"results/simplification/{t}.csv" for t in tables],
@@ -110,17 +134,17 @@ METHOD = Method(
     rules={
         "simplification_prepare": Rule(STAGE, _prepare, gpu=True, params=keys.PREPARE),
         "simplification_optimise": Rule(STAGE, _optimise, gpu=True, params=keys.OPTIMISE),
+        "simplification_deploy": Rule(STAGE, _deploy, params=keys.DEPLOY),
+        "simplification_summary": Rule(STAGE),
         "simplification_evaluate": Rule(STAGE, _evaluate, gpu=True, params=keys.EVALUATE),
+        "simplification_equal_quality": Rule(
+            STAGE, _equal_quality, gpu=True, params=keys.EQUAL_QUALITY
+        ),
+        "simplification_targets": Rule(STAGE),
         "simplification_viewer": Rule(STAGE, _reference, params=keys.VIEWER),
         "simplification_mesh_figure": Rule(STAGE, _reference, params=keys.VIEWER),
     },
     tables_dir=resources.files(__package__),
-    stage_rules={
-        "data": "simplification_prepare",
-        "train": "simplification_optimise",
-        "summary": "simplification_evaluate",
-        "deploy": "simplification_optimise",
-        "equal_quality": "simplification_evaluate",
-        "targets": "simplification_evaluate",
-    },
+    unread_keys=keys.UNREAD,
+    stage_rules={"data": "simplification_prepare", "train": "simplification_optimise"},
 )

@@ -17,6 +17,11 @@ def _case(name: str) -> OfJob:
     return lambda cfg, wildcards: wildcards["case"] == name
 
 
+def _runs(name: str) -> OfJob:
+    """The condition of a job of all cases that the built-in case ``name`` runs in."""
+    return lambda cfg, wildcards: name in cfg["simplification"]["cases"]
+
+
 def _user_asset(cfg: Mapping[str, Any], wildcards: Mapping[str, str]) -> bool:
     return wildcards["case"] in cfg["simplification"]["user_assets"]
 
@@ -77,9 +82,10 @@ OPTIMISE = (
     "simplification.laplacian_min_fraction",
     wildcard("case"),
 )
-#: The render keys, the cases (the user assets' names: which cases there are, a shape of
-#: the DAG), and the optimisation jobs' threads (the evaluation's own are the workflow's
-#: cores): the stage's time counts each optimisation by its share of the cores.
+#: The case (the deployment table's rows name it); the export reads no config key.
+DEPLOY = (wildcard("case"),)
+#: The render keys and the cases (the user assets' names: which cases there are, a shape
+#: of the DAG).
 EVALUATE = (
     "seed",
     "device",
@@ -90,13 +96,36 @@ EVALUATE = (
         lambda cfg, wc: [*cfg["simplification"]["cases"], *cfg["simplification"]["user_assets"]],
         ("simplification.cases",),
     ),
-    Value("user_assets", lambda cfg, wc: list(cfg["simplification"]["user_assets"]), ()),
-    Value(
-        "optimise_threads",
-        lambda cfg, wc: cfg["simplification"]["threads"],
-        ("simplification.threads",),
-    ),
 )
+#: Every case's reference (as the preparation rebuilds it: a built-in case's keys where it
+#: runs, the user assets' entries), the bake's texture size, the evaluation's render keys
+#: and the budgets swept.
+EQUAL_QUALITY = (
+    "seed",
+    "device",
+    *RENDER,
+    "simplification.texture_size",
+    "simplification.eval_spp",
+    "simplification.equal_quality_multiples",
+    Value(
+        "cases",
+        lambda cfg, wc: [*cfg["simplification"]["cases"], *cfg["simplification"]["user_assets"]],
+        ("simplification.cases",),
+    ),
+    When(_runs("head"), ("simplification.head_vertices", "simplification.head_triangles")),
+    When(
+        _runs("metaballs"),
+        (
+            "simplification.metaball_count",
+            "simplification.metaball_grid",
+            "simplification.metaball_triangles",
+        ),
+    ),
+    "simplification.user_assets",
+)
+#: Keys no job's params hold: the optimisation's Dr.Jit threads are its rule's threads, a
+#: resource, so a change reruns no job (with one thread the result is deterministic).
+UNREAD = ("simplification.threads",)
 #: The keys that rebuild a case's reference (a user asset: its entry), not those that
 #: render it (the viewer and the mesh figure).
 VIEWER = ("seed", *REFERENCE)

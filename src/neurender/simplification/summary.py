@@ -1,26 +1,33 @@
-"""The simplification stage's timings and targets."""
+"""The simplification's statistics and targets.
+
+The statistics (``results/simplification/stats.csv``, tidy ``case, quantity, value``) are
+each case's own (``stats.csv`` of its preparation: the reference's and the simplified
+mesh's triangles, the texture size, the preparation's seconds) and its optimisation's
+seconds (the sum of its steps' seconds in its loss CSV); every time in them is one a job
+measured of itself, none depends on the workflow's core count. The stage's time is a run's
+profile (``benchmarks/run_profile.py``), not a statistic nor a target.
+
+The targets read only results (the held-out metrics and the equal-quality table), never a
+time, so a run on other cores reruns none of them.
+"""
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
+from neurender import equal_quality as shared
 from neurender.tables import Target, target_table, threshold
 
+#: What the equal-quality targets' sentences call the classic pipeline
+#: (:data:`neurender.simplification.equal_quality.CLASSIC_WORDS`, without its imports).
+CLASSIC_WORDS = "classic QEM + bake"
 
-def with_timings(
-    stats: pd.DataFrame,
-    losses: list[pd.DataFrame],
-    evaluate_s: float,
-    optimise_threads: int,
-    cores: int,
-) -> pd.DataFrame:
-    """Add each case's optimisation time (sum of its steps) and the stage's total on
-    ``cores`` cores (the workflow's, which the evaluation uses), in seconds: this
-    evaluation (all cores) plus each job weighted by its share of the cores: the
-    one-thread preparations and the optimisation loops (``optimise_threads`` each, the
-    config's ``simplification.threads``), which run side by side."""
-    extra = [
+
+def statistics(stats: list[pd.DataFrame], losses: list[pd.DataFrame]) -> pd.DataFrame:
+    """Every case's statistics (its ``stats`` frame: ``case, quantity, value``) followed by
+    each case's ``optimise_seconds``, the sum of the ``seconds`` rows of its loss frame
+    (``case, step, metric, value``)."""
+    optimise = [
         {
             "case": loss["case"].iloc[0],
             "quantity": "optimise_seconds",
@@ -28,40 +35,22 @@ def with_timings(
         }
         for loss in losses
     ]
-    extra.append({"case": "all", "quantity": "evaluate_seconds", "value": evaluate_s})
-    timed = pd.concat([stats, pd.DataFrame(extra)], ignore_index=True)
-    seconds = timed["quantity"].str.endswith("_seconds")
-    threads = timed["quantity"].map({"optimise_seconds": optimise_threads, "prepare_seconds": 1})
-    share = np.minimum(threads.fillna(cores) / cores, 1.0)
-    total = {
-        "case": "all",
-        "quantity": "stage_seconds",
-        "value": (timed["value"] * share)[seconds].sum(),
-    }
-    return pd.concat([timed, pd.DataFrame([total])], ignore_index=True)
+    return pd.concat([*stats, pd.DataFrame(optimise)], ignore_index=True)
 
 
-def targets(frame: pd.DataFrame, stats: pd.DataFrame) -> pd.DataFrame:
-    """Per case: a PSNR gain over QEM, PSNR above the classic bake and a lower coverage
-    error than QEM, and where the exports were read back (user assets) the GLB's and the
-    OBJ's PSNR within a tolerance of ours; the whole stage within its time
-    budget (thresholds from the simplification's ``targets.csv``)."""
-    mean = frame.groupby(["dataset", "model", "metric"])["value"].mean()
-    minutes = stats.loc[stats["quantity"] == "stage_seconds", "value"].iloc[0] / 60
-    budget, gain_db, export_db = (
-        threshold("simplification", "stage_minutes"),
-        threshold("simplification", "psnr_gain_db"),
-        threshold("simplification", "export_tolerance_db"),
-    )
-    rows = [
-        Target(
-            "stage",
-            f"stage within {budget:g} minutes (measured: minutes)",
-            minutes,
-            minutes <= budget,
-        )
-    ]
-    for case in frame["dataset"].unique():
+def targets(metrics: pd.DataFrame, equal: pd.DataFrame) -> pd.DataFrame:
+    """Per case of the held-out ``metrics`` (columns ``dataset, model, metric, value``): a
+    PSNR gain over QEM, PSNR above the classic bake, a lower coverage error than QEM's, the
+    shipped GLB's and OBJ's PSNR, read back and rendered, within a tolerance of ours, and
+    from the equal-quality table ``equal`` (:mod:`neurender.simplification.equal_quality`)
+    the classic QEM + bake needing at least a threshold times ours' triangles to reach its
+    quality (:func:`neurender.equal_quality.targets`); thresholds from the
+    simplification's ``targets.csv``."""
+    mean = metrics.groupby(["dataset", "model", "metric"])["value"].mean()
+    gain_db = threshold("simplification", "psnr_gain_db")
+    export_db = threshold("simplification", "export_tolerance_db")
+    rows = []
+    for case in metrics["dataset"].unique():
         gain = mean[case, "ours", "psnr"] - mean[case, "qem", "psnr"]
         over_baked = mean[case, "ours", "psnr"] - mean[case, "baked", "psnr"]
         cov = (mean[case, "ours", "coverage_error"], mean[case, "qem", "coverage_error"])
@@ -94,4 +83,6 @@ def targets(frame: pd.DataFrame, stats: pd.DataFrame) -> pd.DataFrame:
                         off <= export_db,
                     )
                 )
+    least = threshold("simplification", "equal_quality_triangle_ratio")
+    rows += shared.targets(equal, least, CLASSIC_WORDS, shared.TRIANGLES)
     return target_table("simplification", rows)

@@ -16,7 +16,12 @@ def simplification_prepare_inputs(wildcards):
     """A user asset's file and the files it names (MTL, textures, glTF buffers and
     images), so that editing any of them reruns its jobs; nothing for a built-in case.
     An asset the workflow makes (under results/) is made with its files by one job."""
-    entry = SIMPLIFICATION_USER_ASSETS.get(wildcards.case)
+    return simplification_asset_files(wildcards.case)
+
+
+def simplification_asset_files(case):
+    """The files of case ``case`` if it is a user asset (simplification_prepare_inputs)."""
+    entry = SIMPLIFICATION_USER_ASSETS.get(case)
     if entry is None:
         return {}
     path = entry["path"]
@@ -36,20 +41,34 @@ def simplification_optimise_inputs(wildcards):
 
 
 def simplification_evaluate_inputs(wildcards):
-    """Every case's files, and the user assets' exported files (read back and rendered),
-    keyed ``<case>_<kind>`` as the evaluation reads them."""
+    """Every case's files and its exported files (simplification_deploy's, read back and
+    rendered), keyed ``<case>_<kind>`` as the evaluation reads them."""
+    return {
+        f"{case}_{kind}": f"results/simplification/{case}/{name}"
+        for case in SIMPLIFICATION_CASES
+        for kind, name in {
+            **SIMPLIFICATION_CASE_FILES,
+            **SIMPLIFICATION_EXPORT_FILES,
+        }.items()
+    }
+
+
+def simplification_equal_quality_inputs(wildcards):
+    """Every case's held-out views and references and its QEM mesh (ours' triangle count),
+    keyed ``<case>_<kind>``, and the user assets' files (each rebuilt, as the preparation
+    rebuilds it), keyed ``<case>_asset`` and ``<case>_asset_files``."""
     files = {
         f"{case}_{kind}": f"results/simplification/{case}/{name}"
         for case in SIMPLIFICATION_CASES
-        for kind, name in SIMPLIFICATION_CASE_FILES.items()
+        for kind, name in (
+            ("test_views", "views_test.csv"),
+            ("test_images", "reference_test.exr"),
+            ("lowpoly", "lowpoly.npz"),
+        )
     }
-    files.update(
-        {
-            f"{case}_{kind}": f"results/simplification/{case}/{name}"
-            for case in SIMPLIFICATION_USER_ASSETS
-            for kind, name in SIMPLIFICATION_EXPORT_FILES.items()
-        }
-    )
+    for case in SIMPLIFICATION_USER_ASSETS:
+        asset = simplification_asset_files(case)
+        files.update({f"{case}_{kind}": path for kind, path in asset.items()})
     return files
 
 

@@ -1,0 +1,4 @@
+from neurender.jobs import run
+from neurender.simplification import jobs
+
+run(snakemake, jobs.simplification_targets)
