@@ -11,17 +11,6 @@ import trimesh
 from neurender import io
 from neurender.prt import animations, data_jobs, mesh_files
 
-CFG = {
-    "seed": 3,
-    "resolution": 12,
-    "source_vertices": 300,
-    "frames": {"train": 6, "val": 2, "test": 2},
-    "experiment_points": 3,
-    "experiment_train_frames": 2,
-    "linear_range": [-0.25, 1.25],
-    "excluded_expression": "jaw_open",
-    "test_fraction": 0.2,
-}
 FRAMES = 10
 
 
@@ -54,11 +43,16 @@ def write_mesh_sequence(folder, mesh, frames=6, suffix=".ply"):
     return folder
 
 
-def run_jobs(tmp_path, name, inputs, cfg=CFG):
+def run_jobs(prt_params, tmp_path, name, inputs):
+    """The geometry-image and sequence jobs of the user animation ``name`` (its files are
+    ``inputs``) at 12^2, 20 % of its frames held out for testing."""
+    animation = {"frames": str(tmp_path / name), "test_fraction": 0.2}
+    config = {"prt": {"resolution": 12, "user_sequences": {name: animation}}}
     gim = {"gim": tmp_path / f"{name}_gim.npz", "stats": tmp_path / f"{name}_gim.csv"}
-    params = {**cfg, "object": name}
+    params = prt_params("prt_geometry_image", config, object=name)
     data_jobs.prt_geometry_image(inputs, gim, params, 1)
     seq = tmp_path / f"{name}_seq.npz"
+    params = prt_params("prt_sequence", config, object=name)
     data_jobs.prt_sequence({**inputs, "gim": gim["gim"]}, {"seq": seq}, params, 1)
     stats = io.read_csv(gim["stats"]).set_index("metric")["value"]
     return io.load_npz(gim["gim"]), io.load_npz(seq), stats
@@ -76,9 +70,9 @@ def test_frames_are_sorted_by_name_with_numbers_in_order(tmp_path):
     ]
 
 
-def test_wave_sequence_pixels_follow_the_surface(tmp_path):
+def test_wave_sequence_pixels_follow_the_surface(tmp_path, prt_params):
     folder = write_wave(tmp_path / "wave")
-    gim, seq, stats = run_jobs(tmp_path, "wave", {"frames": [str(folder)]})
+    gim, seq, stats = run_jobs(prt_params, tmp_path, "wave", {"frames": [str(folder)]})
     assert stats["flipped_triangles"] == 0 and stats["frames"] == FRAMES
     assert stats["seam_length"] == 0 and stats["genus"] == 0
     # 20 % held out at the end (extrapolation in time); the rest split 6:2 into train, val
@@ -100,12 +94,12 @@ def test_wave_sequence_pixels_follow_the_surface(tmp_path):
     assert str(seq["kind"]) == "user_sequence"
 
 
-def test_separate_test_frames_are_used_as_they_are(tmp_path):
+def test_separate_test_frames_are_used_as_they_are(tmp_path, prt_params):
     train = write_wave(tmp_path / "train", frames=6)
     # Frames 7-9 of the cycle (start=20 was frames 0-2 again: the wave has period 10).
     test = write_wave(tmp_path / "test", frames=3, start=7)
     inputs = {"frames": [str(train)], "test_frames": [str(test)]}
-    _, seq, stats = run_jobs(tmp_path, "wave", inputs)
+    _, seq, stats = run_jobs(prt_params, tmp_path, "wave", inputs)
     assert stats["test_frames"] == 3
     assert len(seq["test_positions"]) == 3 and not seq["test_extrapolated"].any()
     assert len(seq["train_frame"]) + len(seq["val_frame"]) == 6
@@ -118,9 +112,9 @@ def test_separate_test_frames_are_used_as_they_are(tmp_path):
         ("torus", trimesh.creation.torus(1.0, 0.3, major_sections=24, minor_sections=12), 1),
     ],
 )
-def test_closed_sequences_are_cut_to_a_disk(tmp_path, name, mesh, genus):
+def test_closed_sequences_are_cut_to_a_disk(tmp_path, prt_params, name, mesh, genus):
     folder = write_mesh_sequence(tmp_path / name, mesh)
-    _, seq, stats = run_jobs(tmp_path, name, {"frames": [str(folder)]})
+    _, seq, stats = run_jobs(prt_params, tmp_path, name, {"frames": [str(folder)]})
     assert stats["flipped_triangles"] == 0
     assert stats["genus"] == genus and stats["boundary_loops"] == 0
     assert stats["seam_length"] > 0 and stats["seam_edges"] > 0
@@ -196,20 +190,20 @@ def test_a_test_frame_with_a_training_pose_is_refused_naming_both(tmp_path):
     )
 
 
-def test_several_components_are_refused_naming_the_file(tmp_path):
+def test_several_components_are_refused_naming_the_file(tmp_path, prt_params):
     folder = tmp_path / "parts"
     parts = trimesh.util.concatenate(
         [trimesh.creation.icosphere(1), trimesh.creation.box().apply_translation([3, 0, 0])]
     )
     write_mesh_sequence(folder, parts, frames=3)
     with pytest.raises(ValueError, match=r"frame_000\.ply: 2 connected components \(80, 12"):
-        run_jobs(tmp_path, "parts", {"frames": [str(folder)]})
+        run_jobs(prt_params, tmp_path, "parts", {"frames": [str(folder)]})
 
 
-def test_a_sequence_too_short_to_train_is_refused(tmp_path):
+def test_a_sequence_too_short_to_train_is_refused(tmp_path, prt_params):
     folder = write_wave(tmp_path / "short", frames=2)
     with pytest.raises(ValueError, match="1 frame.* left for training and validation"):
-        run_jobs(tmp_path, "short", {"frames": [str(folder)]})
+        run_jobs(prt_params, tmp_path, "short", {"frames": [str(folder)]})
 
 
 def test_unreadable_and_empty_inputs_name_the_file(tmp_path):

@@ -15,7 +15,7 @@ from neurender.prt.training import train_deepprt
 
 
 @pytest.fixture(scope="module")
-def shipped(tmp_path_factory):
+def shipped(tmp_path_factory, prt_params):
     """A diffuse network trained for one epoch on 8 x 8 frames, and its ONNX file."""
     tmp = tmp_path_factory.mktemp("deepprt")
     rng = np.random.default_rng(3)
@@ -31,8 +31,7 @@ def shipped(tmp_path_factory):
         )
 
     train, val = split(4), split(2)
-    cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
-    cfg |= {"lr": 1e-3, "lr_schedule": "cosine", "residual_targets": True, "device": "cpu"}
+    cfg = prt_params("prt_train", material="diffuse", variant="paper")
     checkpoint, onnx_file = tmp / "net.pt", tmp / "net.onnx"
     train_deepprt(train, val, "diffuse", cfg, 1, str(checkpoint), str(tmp / "loss.csv"))
     export_deepprt(checkpoint, val, onnx_file)

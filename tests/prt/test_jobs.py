@@ -10,44 +10,30 @@ from neurender.prt import data_jobs, frames, jobs
 from neurender.prt.local_model import ShadowingTransfer
 from neurender.prt.model import DeepPRT, TransferNetwork, load_transfer_module
 
-CFG = {
-    "seed": 5,
-    "resolution": 8,
-    "source_vertices": 300,
-    "frames": {"train": 3, "val": 1, "test": 2},
-    "n_bands": 4,
-    "direction_sets": 2,
-    "ray_offset": 1e-3,
-    "directions": 16,
-    "probe_height": 16,
-    "noise_floor_frames": 1,
-    "experiment_train_frames": 2,
-    "experiment_points": 3,
-    "linear_range": [-0.25, 1.25],
-    "excluded_expression": "jaw_open",
-}
-
 
 @pytest.fixture(scope="module")
-def head(tmp_path_factory):
+def head(tmp_path_factory, prt_params):
     d = tmp_path_factory.mktemp("head")
-    data_jobs.prt_probe(
-        {}, {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}, {**CFG, "probe": "sky"}, 1
-    )
+    probe = {"exr": d / "sky.exr", "sh": d / "sky_sh.csv"}
+    data_jobs.prt_probe({}, probe, prt_params("prt_probe", probe="sky"), 1)
     gim_out = {"gim": d / "gim.npz", "stats": d / "gim.csv"}
-    data_jobs.prt_geometry_image({}, gim_out, {**CFG, "object": "head"}, 1)
+    data_jobs.prt_geometry_image({}, gim_out, prt_params("prt_geometry_image", object="head"), 1)
     data_jobs.prt_sequence(
-        {"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, {**CFG, "object": "head"}, 1
+        {"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, prt_params("prt_sequence", object="head"), 1
     )
     return d
 
 
-def _transfer(head, light, run, threads):
-    """Test frames of the head with 16 directions into ``head / run``."""
+#: The directions of :func:`_transfer`'s test frames (the workflow's are the reference's).
+TEST_DIRECTIONS = 16
+
+
+def _transfer(prt_params, head, light, run, threads):
+    """Test frames of the head with :data:`TEST_DIRECTIONS` directions into ``head / run``."""
     data_jobs.prt_transfer(
         {"seq": head / "seq.npz", "light": head / light},
         {"frames": head / run, "manifest": head / f"{run}.csv"},
-        {**CFG, "object": "head", "split": "test", "directions": 16},
+        prt_params("prt_transfer", object="head", split="test") | {"directions": TEST_DIRECTIONS},
         threads,
     )
 
@@ -66,12 +52,14 @@ def test_probe_sh_first_bands_are_the_lower_order_projection(head):
     )
 
 
-def test_a_user_probe_without_positive_radiance_stops_its_job_naming_file_and_key(tmp_path):
+def test_a_user_probe_without_positive_radiance_stops_its_job_naming_file_and_key(
+    tmp_path, prt_params
+):
     source = tmp_path / "night.exr"
     io.write_exr(source, {c: np.full((8, 16), -0.1, np.float32) for c in "RGB"})
     outputs = {"exr": tmp_path / "out.exr", "sh": tmp_path / "out_sh.csv"}
     with pytest.raises(ValueError) as caught:
-        data_jobs.prt_probe({"source": source}, outputs, {**CFG, "probe": "night"}, 1)
+        data_jobs.prt_probe({"source": source}, outputs, prt_params("prt_probe", probe="night"), 1)
     message = str(caught.value)
     assert f"light probe {source} (prt.user_probes.night) has no positive radiance" in message
     assert "expected a map with positive radiance" in message
@@ -87,9 +75,9 @@ def test_sequence_splits_and_extrapolation(head):
     assert not set(seq["train_frame"]) & set(seq["val_frame"])
 
 
-def test_transfer_frames_are_deterministic_and_complete(head):
+def test_transfer_frames_are_deterministic_and_complete(head, prt_params):
     for run in ("a", "b"):
-        _transfer(head, "sky_sh.csv", run, 2)
+        _transfer(prt_params, head, "sky_sh.csv", run, 2)
     manifest = pd.read_csv(head / "a.csv")
     assert list(manifest.frame) == [0, 1] and (manifest.rays > 0).all()
     assert manifest.extrapolated.tolist() == [False, True]
@@ -101,14 +89,14 @@ def test_transfer_frames_are_deterministic_and_complete(head):
     np.testing.assert_allclose(a["P"], io.load_npz(head / "seq.npz")["test_positions"][1])
 
 
-def test_missing_light_file_is_named(head):
+def test_missing_light_file_is_named(head, prt_params):
     with pytest.raises(FileNotFoundError, match="nolight.csv"):
-        _transfer(head, "nolight.csv", "x", 1)
+        _transfer(prt_params, head, "nolight.csv", "x", 1)
 
 
 @pytest.mark.parametrize("name", ["head_linear", "head_excluded"])
-def test_experiment_sequences(head, name):
-    params = {**CFG, "object": name}
+def test_experiment_sequences(head, prt_params, name):
+    params = prt_params("prt_sequence", object=name)
     data_jobs.prt_sequence({"gim": head / "gim.npz"}, {"seq": head / f"{name}.npz"}, params, 1)
     seq = io.load_npz(head / f"{name}.npz")
     assert len(seq["train_positions"]) == 2 and len(seq["test_positions"]) == 3
@@ -126,12 +114,8 @@ def test_experiment_sequences(head, name):
         np.testing.assert_allclose(seq["test_params"][-1], np.eye(7)[k], atol=1e-6)
 
 
-TRAIN = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-TRAIN |= {"shadowing_batch_size": 1, "shadowing_lr": 5e-4, "lr_schedule": "cosine", "device": "cpu"}
-
-
 @pytest.fixture(scope="module")
-def trained(head):
+def trained(head, prt_params):
     """The head's train and val frames, and one network of every variant and material
     trained by the job as the rule calls it (the paper's form gets its own key)."""
     inputs = {"seq": head / "seq.npz"}
@@ -139,7 +123,7 @@ def trained(head):
         data_jobs.prt_transfer(
             {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},
             {"frames": head / split, "manifest": head / f"{split}_manifest.csv"},
-            {**CFG, "object": "head", "split": split, "directions": 16},
+            prt_params("prt_transfer", object="head", split=split),
             1,
         )
         inputs |= {
@@ -153,22 +137,24 @@ def trained(head):
         ("shadowing", "diffuse"),
         ("shadowing", "glossy"),
     ]:
-        params = {**CFG, **TRAIN, "material": material, "variant": variant}
         extra = {"light": head / "sky_sh.csv"} if material == "glossy" else {}
-        if variant == "paper":
-            params["residual_targets"] = True
         files[variant, material] = _train_and_deploy(
-            {**inputs, **extra}, out / f"{variant}_{material}", params, head
+            prt_params, {**inputs, **extra}, out / f"{variant}_{material}", head, variant, material
         )
     return inputs, files
 
 
-def _train_and_deploy(inputs: dict, stem: Path, params: dict, head: Path) -> dict:
-    """A network trained and deployed by the jobs as the rules call them: its files."""
+def _train_and_deploy(
+    prt_params, inputs: dict, stem: Path, head: Path, variant: str, material: str
+) -> dict:
+    """A network of the head trained and deployed by the jobs as the rules call them: its
+    files."""
     board = head / "tensorboard" / stem.name / "run.json"
     trained = {"checkpoint": f"{stem}.pt", "loss": f"{stem}_loss.csv", "tensorboard": str(board)}
-    jobs.prt_train(inputs, trained, params, 1)
+    wildcards = {"variant": variant, "material": material}
+    jobs.prt_train(inputs, trained, prt_params("prt_train", **wildcards), 1)
     graphs = {"onnx": f"{stem}.onnx", "int8": f"{stem}_int8.onnx"}
+    params = prt_params("prt_deploy", object="head", **wildcards)
     jobs.prt_deploy({**inputs, "checkpoint": trained["checkpoint"]}, graphs, params, 1)
     return trained | graphs
 
@@ -230,21 +216,21 @@ def test_deploy_writes_the_graphs_exported_from_the_whole_splits(trained, head, 
 
 
 @pytest.mark.parametrize(
-    ("variant", "batch_size", "lr"),
-    [("paper", TRAIN["batch_size"], TRAIN["lr"])]
-    + [("shadowing", TRAIN["shadowing_batch_size"], TRAIN["shadowing_lr"])],
+    ("variant", "keys"),
+    [("paper", ("batch_size", "lr")), ("shadowing", ("shadowing_batch_size", "shadowing_lr"))],
 )
 def test_each_variant_trains_with_its_own_batch_size_and_learning_rate(
-    trained, variant, batch_size, lr
+    trained, prt_params, variant, keys
 ):
     _, files = trained
     config = train.load_checkpoint(files[variant, "diffuse"]["checkpoint"])["config"]
-    assert (config["batch_size"], config["lr"]) == (batch_size, lr)
+    params = prt_params("prt_train", material="diffuse", variant=variant)
+    assert (config["batch_size"], config["lr"]) == tuple(params[k] for k in keys)
 
 
-def test_an_unknown_variant_is_refused_naming_it(trained, head):
+def test_an_unknown_variant_is_refused_naming_it(trained, head, prt_params):
     inputs, _ = trained
-    params = {**CFG, **TRAIN, "material": "diffuse", "variant": "tiny"}
+    params = prt_params("prt_train", material="diffuse", variant="tiny")
     outputs = {"checkpoint": head / "x.pt", "loss": head / "x.csv"}
     with pytest.raises(
         ValueError, match=r"variant 'tiny'; expected one of \['paper', 'shadowing'\]"
@@ -252,12 +238,12 @@ def test_an_unknown_variant_is_refused_naming_it(trained, head):
         jobs.prt_train(inputs, outputs, params, 1)
 
 
-def test_ship_copies_the_shipped_variants_bytes(trained, head):
+def test_ship_copies_the_shipped_variants_bytes(trained, head, prt_params):
     _, files = trained
     source = files["shadowing", "diffuse"]
     outputs = {"checkpoint": head / "deepprt_diffuse.pt", "onnx": head / "deepprt_diffuse.onnx"}
     inputs = {"checkpoint": source["checkpoint"], "onnx": source["onnx"]}
-    copy_files(inputs, outputs, {"shipped": "shadowing"}, 1)
+    copy_files(inputs, outputs, prt_params("prt_ship"), 1)
     for key in ("checkpoint", "onnx"):
         with open(outputs[key], "rb") as got, open(source[key], "rb") as want:
             assert got.read() == want.read()
@@ -273,32 +259,28 @@ def test_each_variant_logs_its_epochs_and_previews_to_tensorboard(
     assert logged["val/loss"] == logged["previews/prediction"] == logged["lr"] == [1]
 
 
-EVALUATE = {"render_resolution": 16, "glossy_exponent": 16.0, "reference_directions": 64}
-EVALUATE |= {"equal_quality_directions": [4, 16], "variants": ["paper", "shadowing"]}
-EVALUATE |= {"pca_components": 2, "ridges": [1e-3, 1e-1], "object": "head", "device": "cpu"}
-
-
 @pytest.fixture(scope="module")
-def evaluated(trained, head):
+def evaluated(trained, head, prt_params):
     """Every network (the paper's glossy one too), MoMoPRT, the test references at the
     reference's directions, and the evaluation and equal-quality jobs run as the rules run
     them (the first on one thread, the second on two)."""
     inputs, files = trained
-    params = {**CFG, **TRAIN, "material": "glossy", "variant": "paper", "residual_targets": True}
-    paper_glossy = _train_and_deploy(inputs, head / "variants" / "paper_glossy", params, head)
+    stem = head / "variants" / "paper_glossy"
+    paper_glossy = _train_and_deploy(prt_params, inputs, stem, head, "paper", "glossy")
     files = {**files, ("paper", "glossy"): paper_glossy}
     data_jobs.prt_transfer(
         {"seq": head / "seq.npz", "light": head / "sky_sh.csv"},
         {"frames": head / "test", "manifest": head / "test_manifest.csv"},
-        {**CFG, "object": "head", "split": "test", "directions": 64},
+        prt_params("prt_transfer", object="head", split="test"),
         1,
     )
     momoprt = {}
     for material in ("diffuse", "glossy"):
         out = {"model": head / f"momoprt_{material}.npz"}
-        data_jobs.prt_momoprt(inputs, out, {**CFG, **EVALUATE, "material": material}, 1)
+        data_jobs.prt_momoprt(inputs, out, prt_params("prt_momoprt", material=material), 1)
         momoprt[input_name("momoprt", material)] = out["model"]
-    pairs = [(v, m) for v in EVALUATE["variants"] for m in ("diffuse", "glossy")]
+    params = prt_params("prt_evaluate", object="head")
+    pairs = [(v, m) for v in params["variants"] for m in ("diffuse", "glossy")]
     networks = {
         input_name(kind, *p): files[p][name]
         for kind, name in (("pt", "checkpoint"), ("onnx", "onnx"), ("int8.onnx", "int8"))
@@ -306,13 +288,12 @@ def evaluated(trained, head):
     }
     test = {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
     light = {"light": head / "sky_sh.csv"}
-    params = {**CFG, **EVALUATE}
     scores = {"metrics": head / "metrics.csv", "frames": head / "metrics_frames.csv"}
     evaluate_inputs = {**inputs, **test, **networks, **light, **momoprt}
     jobs.prt_evaluate(evaluate_inputs, {**scores, "figure": head / "prediction.png"}, params, 1)
     timed = {"equal_quality": head / "equal_quality.csv", "deployment": head / "deployment.csv"}
     equal_inputs = {"seq": inputs["seq"], **test, **networks, **light, "frames": scores["frames"]}
-    jobs.prt_equal_quality(equal_inputs, timed, params, 2)
+    jobs.prt_equal_quality(equal_inputs, timed, prt_params("prt_equal_quality", object="head"), 2)
     return {name: io.read_csv(path) for name, path in {**scores, **timed}.items()}
 
 
@@ -341,23 +322,27 @@ def test_evaluation_scores_every_network_momoprt_and_the_ground_truths_on_val_an
     assert mean == pytest.approx(want)
 
 
-def test_every_network_records_its_training_budget(evaluated):
+def test_every_network_records_its_training_budget(evaluated, prt_params):
     scores = evaluated["metrics"]
     budget = scores[scores.metric.str.startswith("epochs_")]
     assert set(budget.model) == {"DeepPRT", "DeepPRT shadowing", "DeepPRT int8"} | {
         "DeepPRT shadowing int8"
     }
-    assert (budget.value == TRAIN["epochs"]).all() and len(budget) == 4 * 2
+    epochs = prt_params("prt_train", material="diffuse", variant="paper")["epochs"]
+    assert (budget.value == epochs).all() and len(budget) == 4 * 2
 
 
-def test_equal_quality_times_every_direction_count_and_picks_by_the_shared_rule(evaluated):
+def test_equal_quality_times_every_direction_count_and_picks_by_the_shared_rule(
+    evaluated, prt_params
+):
     from neurender import equal_quality as shared
     from neurender.prt.equal_quality import QUALITY, RAY_TRACED
 
     table = evaluated["equal_quality"]
     assert set(table.split) == {shared.SPLIT} and set(table.dataset) == {"head"}
     traced = table[table.model == RAY_TRACED]
-    counts = EVALUATE["equal_quality_directions"]
+    params = prt_params("prt_equal_quality", object="head")
+    counts = params["equal_quality_directions"]
     assert set(traced.setting) == {f"{d} directions" for d in counts}
     assert (traced[traced.metric == "ms_per_frame"].value > 0).all()
     scores = traced.pivot_table(index="setting", columns="metric", values="value").reset_index()
@@ -370,7 +355,7 @@ def test_equal_quality_times_every_direction_count_and_picks_by_the_shared_rule(
             (frames_.model == model)
             & (frames_.metric == "ssim_diffuse")
             & (frames_.split == "test")
-            & (frames_.frame < CFG["noise_floor_frames"])
+            & (frames_.frame < params["noise_floor_frames"])
         ]
         assert value["ssim_diffuse"] == pytest.approx(ssim.value.mean())
         pick = shared.pick(scores, {"ssim_diffuse": value["ssim_diffuse"]}, QUALITY)
@@ -392,11 +377,11 @@ def _image(path) -> np.ndarray:
 
 
 def test_the_noise_floor_compares_two_16_direction_samples_with_the_64_direction_reference(
-    evaluated, head
+    evaluated, head, prt_params
 ):
     out = head / "noise_floor.csv"
     inputs = {"seq": head / "seq.npz", "reference": head / "test", "light": head / "sky_sh.csv"}
-    params = {**CFG, "object": "head", "directions": 16, "noise_floor_frames": 1}
+    params = prt_params("prt_noise_floor", object="head")
     jobs.prt_noise_floor(inputs, {"csv": out}, params, 1)
     value = io.read_csv(out).set_index("metric")["value"]
     # Two independent 16-direction estimates differ from each other and from the reference,
@@ -406,13 +391,15 @@ def test_the_noise_floor_compares_two_16_direction_samples_with_the_64_direction
     assert (value[[m for m in value.index if m.startswith("l1_")]] > 0).all()
 
 
-def test_the_data_summary_counts_each_splits_frames_and_copies_the_noise_floor(head, tmp_path):
+def test_the_data_summary_counts_each_splits_frames_and_copies_the_noise_floor(
+    head, tmp_path, prt_config, prt_params
+):
     noise = pd.DataFrame(
         {"method": "prt", "object": "head", "model": "gt", "split": "test"}
         | {"metric": ["ssim_sample_vs_sample"] * 2, "frame": [0, 1], "value": [0.9, 0.8]}
     )
     io.write_csv(tmp_path / "noise_floor.csv", noise)
-    _transfer(head, "sky_sh.csv", "summary_test", 1)
+    _transfer(prt_params, head, "sky_sh.csv", "summary_test", 1)
     manifest = head / "summary_test.csv"
     outputs = {"data": tmp_path / "data.csv", "noise": tmp_path / "noise.csv"}
     inputs = {
@@ -423,14 +410,16 @@ def test_the_data_summary_counts_each_splits_frames_and_copies_the_noise_floor(h
     jobs.prt_summary(inputs, outputs, {}, 1)
     data = io.read_csv(outputs["data"])
     gt = data[data.model == "ray-traced ground truth"].set_index("metric")["value"]
-    assert gt["frames"] == CFG["frames"]["test"] and gt["directions"] == 16
+    assert gt["frames"] == prt_config["prt"]["frames"]["test"]
+    assert gt["directions"] == TEST_DIRECTIONS
     pd.testing.assert_frame_equal(io.read_csv(outputs["noise"]), noise.drop(columns="frame"))
 
 
-def test_the_relit_frame_blends_two_probes_and_scores_each_blend(evaluated, trained, head):
-    data_jobs.prt_probe(
-        {}, {"exr": head / "dusk.exr", "sh": head / "dusk_sh.csv"}, {**CFG, "probe": "sunset"}, 1
-    )
+def test_the_relit_frame_blends_two_probes_and_scores_each_blend(
+    evaluated, trained, head, prt_params
+):
+    probe = {"exr": head / "dusk.exr", "sh": head / "dusk_sh.csv"}
+    data_jobs.prt_probe({}, probe, prt_params("prt_probe", probe="sunset"), 1)
     _, files = trained
     inputs = {
         "seq": head / "seq.npz",
@@ -441,36 +430,36 @@ def test_the_relit_frame_blends_two_probes_and_scores_each_blend(evaluated, trai
     inputs |= {"onnx": files["shadowing", "diffuse"]["onnx"]}
     inputs |= {"probes": [head / "sky_sh.csv", head / "dusk_sh.csv"]}
     outputs = {"csv": head / "relight.csv", "figure": head / "relight.png"}
-    jobs.prt_relight(inputs, outputs, {**EVALUATE, "n_bands": CFG["n_bands"]}, 1)
+    params = prt_params("prt_relight", object="head")
+    jobs.prt_relight(inputs, outputs, params, 1)
     table = io.read_csv(outputs["csv"])
     assert table.value.between(-1, 1).all() and len(table) >= 2
     assert _image(outputs["figure"]).std() > 0
     with pytest.raises(ValueError, match="dynamic lighting needs two light probes"):
-        jobs.prt_relight({**inputs, "probes": inputs["probes"][:1]}, outputs, EVALUATE, 1)
+        jobs.prt_relight({**inputs, "probes": inputs["probes"][:1]}, outputs, params, 1)
 
 
-def test_the_frames_and_probes_figures_draw_the_data(head):
-    _transfer(head, "sky_sh.csv", "figure_test", 1)
-    params = {"object": "head", "n_bands": CFG["n_bands"]}
+def test_the_frames_and_probes_figures_draw_the_data(head, prt_params):
+    _transfer(prt_params, head, "sky_sh.csv", "figure_test", 1)
     jobs.prt_figure(
         {"frames": head / "figure_test", "light": head / "sky_sh.csv"},
         {"png": head / "frames.png"},
-        params,
+        prt_params("prt_figure", object="head"),
         1,
     )
     jobs.prt_probes_figure(
         {"exrs": [head / "sky.exr"], "sh": [head / "sky_sh.csv"]},
         {"png": head / "probes.png"},
-        {},
+        prt_params("prt_probes_figure"),
         1,
     )
     for png in ("frames.png", "probes.png"):
         assert _image(head / png).std() > 1  # drawn, not blank
 
 
-def test_the_ray_tracing_benchmark_times_the_stage_and_embree(head, tmp_path):
+def test_the_ray_tracing_benchmark_times_the_stage_and_embree(head, tmp_path, prt_params):
     out = tmp_path / "benchmark.csv"
-    params = {**CFG, "object": "head", "directions": 16, "benchmark_paper_scale": False}
+    params = prt_params("prt_benchmark")
     data_jobs.prt_benchmark(
         {"seq": head / "seq.npz", "light": head / "sky_sh.csv"}, {"csv": out}, params, 1
     )
@@ -483,10 +472,11 @@ def test_the_ray_tracing_benchmark_times_the_stage_and_embree(head, tmp_path):
 
 
 def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_the_path(
-    evaluated, trained, head
+    evaluated, trained, head, prt_config, prt_params
 ):
     _, files = trained
-    variants = EVALUATE["variants"]
+    params = prt_params("prt_experiment", object="head_excluded")
+    variants = params["variants"]
     inputs = {"seq": head / "seq.npz", "light": head / "sky_sh.csv"}
     inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
     inputs |= {input_name("pt", v, "diffuse"): files[v, "diffuse"]["checkpoint"] for v in variants}
@@ -494,11 +484,10 @@ def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_t
     inputs |= {"momoprt": head / "momoprt_diffuse.npz"}
     outputs = {"csv": head / "experiment.csv", "figure": head / "experiment.png"}
     outputs |= {"deployment": head / "experiment_deployment.csv"}
-    params = {**EVALUATE, "n_bands": CFG["n_bands"], "object": "head_excluded"}
     jobs.prt_experiment(inputs, outputs, params, 1)
     table = io.read_csv(outputs["csv"])
     assert set(table.model) == {"DeepPRT", "DeepPRT shadowing", "MoMoPRT"}
-    frames_ = CFG["frames"]["test"]
+    frames_ = prt_config["prt"]["frames"]["test"]
     assert table.groupby(["model", "metric"]).size().eq(frames_).all()  # every test frame
     deployment = io.read_csv(outputs["deployment"])
     assert sorted(deployment.network.str.contains("shadowing")) == [False, True]
@@ -506,7 +495,7 @@ def test_the_experiment_scores_each_variants_diffuse_network_and_momoprt_along_t
 
 
 @pytest.fixture(scope="module")
-def model_summary(evaluated, trained, head, tmp_path_factory):
+def model_summary(evaluated, trained, head, tmp_path_factory, prt_params):
     """The model summary's and the targets' jobs run on the head's evaluation, its
     held-out experiment and an unseen-deformation benchmark of one frame: (the files
     of the summary's outputs, the targets' table)."""
@@ -515,7 +504,8 @@ def model_summary(evaluated, trained, head, tmp_path_factory):
     stem = head / "variants" / "paper_glossy"  # trained by the evaluation fixture
     files = {**files, ("paper", "glossy"): {"checkpoint": f"{stem}.pt", "onnx": f"{stem}.onnx"}}
     files["paper", "glossy"] |= {"int8": f"{stem}_int8.onnx", "loss": f"{stem}_loss.csv"}
-    variants = EVALUATE["variants"]
+    params = prt_params("prt_model_summary") | {"objects": ["head"]}
+    variants = params["variants"]
     pairs = [(v, m) for v in variants for m in ("diffuse", "glossy")]
     momoprt = {input_name("momoprt", m): head / f"momoprt_{m}.npz" for m in ("diffuse", "glossy")}
     light = head / "sky_sh.csv"
@@ -523,15 +513,16 @@ def model_summary(evaluated, trained, head, tmp_path_factory):
     unseen_inputs = {"gim": head / "gim.npz", "seq": head / "seq.npz", "light": light, **momoprt}
     unseen_inputs |= {input_name("pt", *p): files[p]["checkpoint"] for p in pairs}
     unseen_inputs |= {input_name("onnx", *p): files[p]["onnx"] for p in pairs}
-    params = {**CFG, **EVALUATE, "object": "head", "unseen_strengths": [1.0], "unseen_frames": 1}
-    jobs.prt_unseen(unseen_inputs, unseen, {**params, "reference_directions": 16}, 1)
+    unseen_params = prt_params("prt_unseen", object="head")
+    unseen_params |= {"unseen_strengths": [1.0], "reference_directions": 16}
+    jobs.prt_unseen(unseen_inputs, unseen, unseen_params, 1)
     experiment = {"csv": tmp_path / "experiment.csv", "figure": tmp_path / "experiment.png"}
     experiment["deployment"] = tmp_path / "experiment_deployment.csv"
     inputs = {"seq": head / "seq.npz", "light": light, "momoprt": head / "momoprt_diffuse.npz"}
     inputs |= {"test_dir": head / "test", "test_manifest": head / "test_manifest.csv"}
     inputs |= {input_name("pt", v, "diffuse"): files[v, "diffuse"]["checkpoint"] for v in variants}
     inputs |= {input_name("onnx", v, "diffuse"): files[v, "diffuse"]["onnx"] for v in variants}
-    jobs.prt_experiment(inputs, experiment, {**params, "object": "head_excluded"}, 1)
+    jobs.prt_experiment(inputs, experiment, prt_params("prt_experiment", object="head_excluded"), 1)
     summary_inputs = {
         "metrics": [head / "metrics.csv"],
         "equal_quality": [head / "equal_quality.csv"],
@@ -547,19 +538,17 @@ def model_summary(evaluated, trained, head, tmp_path_factory):
     names = ("metrics", "equal_quality", "deployment", "compression")
     outputs = {name: tmp_path / f"summary_{name}.csv" for name in names}
     outputs |= {"loss": tmp_path / "loss.png", "equal_quality_figure": tmp_path / "eq.png"}
-    params = {"objects": ["head"], "variants": variants, "shipped": "shadowing"}
-    params |= {"resolution": CFG["resolution"], "n_bands": CFG["n_bands"]}
     jobs.prt_model_summary(summary_inputs, outputs, params, 1)
     target_inputs = {k: outputs[k] for k in ("metrics", "equal_quality")}
     target_inputs |= {"experiments": [experiment["csv"]], "unseen": unseen["csv"]}
     targets = {"targets": tmp_path / "targets.csv"}
-    jobs.prt_targets(target_inputs, targets, {"shipped": "shadowing"}, 1)
+    jobs.prt_targets(target_inputs, targets, prt_params("prt_targets"), 1)
     return outputs, io.read_csv(targets["targets"])
 
 
-def test_the_model_summary_gathers_every_objects_results(model_summary, evaluated):
+def test_the_model_summary_gathers_every_objects_results(model_summary, evaluated, prt_params):
     outputs, _ = model_summary
-    variants = EVALUATE["variants"]
+    variants = prt_params("prt_model_summary")["variants"]
     pd.testing.assert_frame_equal(io.read_csv(outputs["metrics"]), evaluated["metrics"])
     equal = io.read_csv(outputs["equal_quality"])
     pd.testing.assert_frame_equal(equal, evaluated["equal_quality"])

@@ -86,13 +86,12 @@ def test_transfer_network_decodes_the_network_of_normalised_inputs(residual):
     np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-5)
 
 
-def test_trained_deepprt_exports_and_both_engines_agree(tmp_path, tensorboard_steps):
+def test_trained_deepprt_exports_and_both_engines_agree(tmp_path, tensorboard_steps, prt_params):
     rng = np.random.default_rng(5)
     w, b = rng.normal(size=(2, 4 * 4 * 16)), rng.normal(size=4 * 4 * 16)
     train = _split(rng.uniform(0, 1, (6, 2)), rng, affine=(w, b))
     val = _split(rng.uniform(0, 1, (3, 2)), rng, affine=(w, b))
-    cfg = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2}
-    cfg |= {"lr": 1e-3, "lr_schedule": "cosine", "residual_targets": True, "device": "cpu"}
+    cfg = prt_params("prt_train", material="glossy", variant="paper")
     checkpoint, onnx_file = tmp_path / "net.pt", tmp_path / "net.onnx"
     board = tmp_path / "tensorboard" / "run.json"
     loss_csv = str(tmp_path / "loss.csv")

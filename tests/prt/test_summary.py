@@ -11,9 +11,6 @@ from neurender.prt.summary import compression_rows, shipped_rows, target_frame
 from neurender.prt.training import train_deepprt
 from neurender.tables import threshold, tidy_rows
 
-CFG = {"seed": 0, "widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-CFG |= {"residual_targets": True, "device": "cpu", "lr_schedule": "cosine"}
-
 
 def _split(frames, rng, n=4, k=16):
     positions = rng.normal(size=(frames, n, n, 3)).astype(np.float32)
@@ -24,7 +21,7 @@ def _split(frames, rng, n=4, k=16):
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory):
+def trained(tmp_path_factory, prt_params):
     """Checkpoints of both materials of one object, as the training rule writes them."""
     folder = tmp_path_factory.mktemp("deepprt")
     rng = np.random.default_rng(0)
@@ -32,7 +29,8 @@ def trained(tmp_path_factory):
     paths = {}
     for material in ("diffuse", "glossy"):
         paths[material] = folder / f"deepprt_{material}.pt"
-        train_deepprt(*splits, material, CFG, 1, str(paths[material]), str(folder / "l.csv"))
+        cfg = prt_params("prt_train", material=material, variant="paper")
+        train_deepprt(*splits, material, cfg, 1, str(paths[material]), str(folder / "l.csv"))
     return folder, paths, splits
 
 
@@ -49,7 +47,7 @@ def test_a_trained_checkpoint_loads_with_weights_only_and_keeps_the_normalisatio
     )
 
 
-def test_compression_rows_read_the_parameters_from_the_checkpoints(trained):
+def test_compression_rows_read_the_parameters_from_the_checkpoints(trained, prt_params):
     folder, paths, _ = trained
     dirs = [folder / s for s in ("train", "val", "test")]
     for d, count in zip(dirs, (3, 2, 4), strict=True):
@@ -65,7 +63,8 @@ def test_compression_rows_read_the_parameters_from_the_checkpoints(trained):
     for material, m in (("diffuse", 16), ("glossy", 48)):
         rows = table[(table.dataset == "obj") & (table.model == f"DeepPRT {material}")]
         value = dict(zip(rows.metric, rows.value, strict=True))
-        params = count_parameters(build_network(m, CFG["widths"], CFG["blocks"]))
+        cfg = prt_params("prt_train", material=material, variant="paper")
+        params = count_parameters(build_network(m, cfg["widths"], cfg["blocks"]))
         assert value["parameters"] == params
         assert value["compression_ratio"] == pytest.approx(5 * 4 * 4 * m / params)  # train + val
         assert value["network_file_bytes"] == (7 if material == "diffuse" else 9)

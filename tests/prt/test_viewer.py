@@ -12,22 +12,6 @@ from neurender.prt import data_jobs, frames, jobs, transfer
 from neurender.prt.viewer import TURNS, prt_view
 
 N, K = 6, 16
-#: The prt keys the data jobs read, at test sizes.
-CFG = {
-    "seed": 5,
-    "resolution": 8,
-    "source_vertices": 300,
-    "frames": {"train": 3, "val": 1, "test": 2},
-    "n_bands": 4,
-    "direction_sets": 2,
-    "ray_offset": 1e-3,
-    "directions": 16,
-    "probe_height": 16,
-    "experiment_train_frames": 2,
-    "experiment_points": 3,
-    "linear_range": [-0.25, 1.25],
-    "excluded_expression": "jaw_open",
-}
 
 
 def _split(frames_=3, seed=0):
@@ -77,44 +61,47 @@ def test_shading_under_a_turned_probe_equals_relighting_with_the_turned_map(turn
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory):
+def trained(tmp_path_factory, prt_params):
     """A tiny head through the DeepPRT jobs: probes, frames of every split, a one-epoch
     network and MoMoPRT."""
     d = tmp_path_factory.mktemp("viewer")
     for probe in ("sky", "sunset"):
-        data_jobs.prt_probe(
-            {}, {"exr": d / f"{probe}.exr", "sh": d / f"{probe}_sh.csv"}, {**CFG, "probe": probe}, 1
-        )
-    cfg = {**CFG, "object": "head"}
-    data_jobs.prt_geometry_image({}, {"gim": d / "gim.npz", "stats": d / "gim.csv"}, cfg, 1)
-    data_jobs.prt_sequence({"gim": d / "gim.npz"}, {"seq": d / "seq.npz"}, cfg, 1)
+        files = {"exr": d / f"{probe}.exr", "sh": d / f"{probe}_sh.csv"}
+        data_jobs.prt_probe({}, files, prt_params("prt_probe", probe=probe), 1)
+    gim = {"gim": d / "gim.npz", "stats": d / "gim.csv"}
+    data_jobs.prt_geometry_image({}, gim, prt_params("prt_geometry_image", object="head"), 1)
+    seq = {"seq": d / "seq.npz"}
+    data_jobs.prt_sequence(
+        {"gim": d / "gim.npz"}, seq, prt_params("prt_sequence", object="head"), 1
+    )
     files = {"seq": str(d / "seq.npz")}
     for split in ("train", "val", "test"):
         data_jobs.prt_transfer(
             {"seq": d / "seq.npz", "light": d / "sky_sh.csv"},
             {"frames": d / split, "manifest": d / f"{split}.csv"},
-            {**cfg, "split": split},
+            prt_params("prt_transfer", object="head", split=split),
             1,
         )
         files |= {f"{split}_dir": str(d / split), f"{split}_manifest": str(d / f"{split}.csv")}
-    model = {"widths": [4, 8], "blocks": 1, "epochs": 1, "batch_size": 2, "lr": 1e-3}
-    model |= {"lr_schedule": "constant", "residual_targets": True, "device": "cpu"}
-    model |= {"material": "diffuse", "pca_components": 2, "ridges": [1e-3], "variant": "paper"}
-    jobs.prt_train(files, {"checkpoint": d / "net.pt", "loss": d / "loss.csv"}, {**CFG, **model}, 1)
+    network = {"variant": "paper", "material": "diffuse"}
+    trained = {"checkpoint": d / "net.pt", "loss": d / "loss.csv"}
+    jobs.prt_train(files, trained, prt_params("prt_train", **network), 1)
     graphs = {"onnx": d / "net.onnx", "int8": d / "net_int8.onnx"}
-    jobs.prt_deploy({**files, "checkpoint": d / "net.pt"}, graphs, {**CFG, **model}, 1)
-    data_jobs.prt_momoprt(files, {"model": d / "momo.npz"}, {**CFG, **model}, 1)
+    deploy = prt_params("prt_deploy", object="head", **network)
+    jobs.prt_deploy({**files, "checkpoint": d / "net.pt"}, graphs, deploy, 1)
+    momoprt = prt_params("prt_momoprt", material="diffuse")
+    data_jobs.prt_momoprt(files, {"model": d / "momo.npz"}, momoprt, 1)
     return d, files
 
 
-def test_the_viewer_job_writes_every_model_and_probe(trained):
+def test_the_viewer_job_writes_every_model_and_probe(trained, prt_params):
     d, files = trained
     inputs = files | {"deepprt": str(d / "net.pt"), "onnx": str(d / "net.onnx")}
     inputs |= {
         "momoprt": str(d / "momo.npz"),
         "probes": [str(d / "sky_sh.csv"), str(d / "sunset_sh.csv")],
     }
-    params = {"n_bands": 4, "device": "cpu", "object": "head"}
+    params = prt_params("prt_viewer", object="head")
     jobs.prt_viewer(inputs, {"viewer": d / "viewer.json"}, params, 1)
     viewer = viewer_data.read(d / "viewer.json")
     assert viewer["kind"] == "prt" and "head" in viewer["title"]
@@ -128,12 +115,11 @@ def test_the_viewer_job_writes_every_model_and_probe(trained):
     np.testing.assert_allclose(light[0], frames.read_sh_light(d / "sunset_sh.csv"), atol=1e-6)
 
 
-def test_the_mesh_figure_job_draws_the_geometry_image_and_frames(trained):
+def test_the_mesh_figure_job_draws_the_geometry_image_and_frames(trained, prt_params):
     d, files = trained
     out = d / "figures" / "head_meshes.png"
-    jobs.prt_mesh_figure(
-        {"gim": str(d / "gim.npz"), "seq": files["seq"]}, {"png": out}, {"object": "head"}, 1
-    )
+    params = prt_params("prt_mesh_figure", object="head")
+    jobs.prt_mesh_figure({"gim": str(d / "gim.npz"), "seq": files["seq"]}, {"png": out}, params, 1)
     image = np.asarray(Image.open(out).convert("RGB"))
     assert image.shape == (550, 1100, 3)
     assert (image.sum(-1) < 600).mean() > 0.05  # meshes drawn on the white background
