@@ -9,6 +9,7 @@ import pytest
 
 from neurender import equal_quality as eq
 from neurender import io, methods, tables
+from neurender.method import Method
 from neurender.report import build
 
 #: Two metrics, one better higher, one better lower.
@@ -142,8 +143,13 @@ def test_a_target_is_met_by_a_pick_or_a_lower_bound_never_by_an_upper_bound():
     assert "against fine, within the sweep" in net.check
 
 
+def _renamed(method: Method, key: str, title: str) -> Method:
+    """A built-in method's record under another key and title, its stages' rules kept."""
+    return dataclasses.replace(method, key=key, title=title, stage_rules=method.stages)
+
+
 def test_a_registered_method_gets_the_reports_equal_quality_table(tmp_path, monkeypatch):
-    toy = dataclasses.replace(methods.METHODS[0], key="toy", title="Toy: a registered method")
+    toy = _renamed(methods.METHODS[0], "toy", "Toy: a registered method")
     monkeypatch.setattr(methods, "METHODS", (*methods.METHODS, toy))
     path = tmp_path / "results" / "toy" / "equal_quality.csv"
     io.write_csv(path, _table())
@@ -278,8 +284,8 @@ def test_a_triangle_target_says_fewer_triangles_and_keeps_the_bounds_meaning():
 
 
 def test_the_reports_summary_has_a_table_per_cost(tmp_path, monkeypatch):
-    toy = dataclasses.replace(methods.METHODS[0], key="toy", title="Toy: a registered method")
-    mesh = dataclasses.replace(methods.METHODS[0], key="mesh", title="Mesh: triangles")
+    toy = _renamed(methods.METHODS[0], "toy", "Toy: a registered method")
+    mesh = _renamed(methods.METHODS[0], "mesh", "Mesh: triangles")
     monkeypatch.setattr(methods, "METHODS", (*methods.METHODS, toy, mesh))
     paths = [tmp_path / "results" / key / "equal_quality.csv" for key in ("mesh", "toy")]
     io.write_csv(paths[0], _triangle_table().assign(method="mesh"))
