@@ -28,6 +28,7 @@ import csv
 import io
 import multiprocessing
 import os
+import shutil
 import tempfile
 import time
 import types
@@ -266,15 +267,18 @@ def make_outputs(workdir: Path, paths: Iterable[str]) -> list[Path]:
     return made
 
 
-def finish_smoke_run(workdir: Path) -> list[Job]:
+def finish_smoke_run(workdir: Path, copies: Iterable[str] = ()) -> list[Job]:
     """Make the empty folder ``workdir`` a checkout with a finished smoke run, without
     running a job: a link to each file and folder of the checkout (``results/`` and
-    Snakemake's metadata left out), Snakemake's metadata of every job of the smoke DAG
-    (recorded by the ``touch`` executor, which records it as a run does, outputs missing or
-    not) and every output an empty file (:func:`make_outputs`). The jobs, as Snakemake
-    reports them."""
+    Snakemake's metadata left out; a copy of those named in ``copies``), Snakemake's
+    metadata of every job of the smoke DAG (recorded by the ``touch`` executor, which
+    records it as a run does, outputs missing or not) and every output an empty file
+    (:func:`make_outputs`). The jobs, as Snakemake reports them."""
     for entry in ROOT.iterdir():
-        if entry.name not in {"results", ".snakemake", ".git"}:
+        if entry.name in copies:
+            copy = shutil.copytree if entry.is_dir() else shutil.copy2
+            copy(entry, workdir / entry.name)
+        elif entry.name not in {"results", ".snakemake", ".git"}:
             (workdir / entry.name).symlink_to(entry)
     jobs: list[Job] = []
     with smoke_dag(workdir, jobs=jobs, forceall=True) as dag:
