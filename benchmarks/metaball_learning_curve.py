@@ -29,7 +29,7 @@ Three steps:
   seconds) after each run.
 * ``merge``: one CSV and sidecar from the runs' (split over processes side by side): the
   isolated spheres' rows kept once (refused if the runs disagree), every run once, the
-  rows in the study's order; and the figure (``.png`` beside the CSV).
+  rows by examples and epochs; and the figure (``.png`` beside the CSV).
 """
 
 from __future__ import annotations
@@ -308,23 +308,21 @@ def run_study(
         save(rows, seconds)
 
 
-def order(table: pd.DataFrame, runs: list[Run]) -> pd.DataFrame:
-    """The rows in the study's order: the baseline's, then each run's in ``runs``' order
-    (runs of no sweep last), metrics in the order they came."""
-    rank = {(r.examples, r.epochs): i + 1 for i, r in enumerate(runs)}
-    key = [
-        0 if m == BASELINE else rank.get((n, e), len(rank) + 1)
-        for n, e, m in zip(table["examples"], table["epochs"], table["model"], strict=True)
-    ]
+def order(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows by examples, then epochs (the baseline's, 0 and 0, first), each run's
+    metrics those of :data:`SHOWN` first, in its order, then the others as they came: the
+    order of the report's view."""
+    shown = list(SHOWN)
+    rank = [shown.index(m) if m in SHOWN else len(shown) for m in table["metric"]]
     return (
-        table.assign(_key=key, _row=range(len(table)))
-        .sort_values(["_key", "examples", "epochs", "_row"])
-        .drop(columns=["_key", "_row"])
+        table.assign(_rank=rank, _row=range(len(table)))
+        .sort_values(["examples", "epochs", "_rank", "_row"])
+        .drop(columns=["_rank", "_row"])
         .reset_index(drop=True)
     )
 
 
-def merge_tables(tables: list[pd.DataFrame], runs: list[Run]) -> pd.DataFrame:
+def merge_tables(tables: list[pd.DataFrame]) -> pd.DataFrame:
     """One table of several runs' tables: the baseline's rows once (``ValueError`` when the
     tables disagree on them), ``ValueError`` for a run of the variant in two tables."""
     baselines = [t[t["model"] == BASELINE].reset_index(drop=True) for t in tables]
@@ -339,7 +337,7 @@ def merge_tables(tables: list[pd.DataFrame], runs: list[Run]) -> pd.DataFrame:
         found = sorted({f"{n}x{e}" for n, e in zip(twice.examples, twice.epochs, strict=True)})
         raise ValueError(f"runs {found} are in more than one table; expected each once")
     table = pd.concat([*baselines[:1], trained], ignore_index=True)
-    return order(table, runs)[COLUMNS]
+    return order(table)[COLUMNS]
 
 
 def beats(table: pd.DataFrame, variant: str) -> pd.DataFrame:
@@ -394,7 +392,7 @@ def merge(csvs: list[str], out: Path, study_path: Path, note: str | None) -> Non
     """One CSV, sidecar and figure of several runs' (``csvs`` and their sidecars)."""
     study = io.read_yaml(study_path)
     records = [json.loads(Path(csv).with_suffix(".json").read_text()) for csv in csvs]
-    table = merge_tables([pd.read_csv(csv) for csv in csvs], study_runs(study))
+    table = merge_tables([pd.read_csv(csv) for csv in csvs])
     io.write_csv(out, table)
     data = records[0]["data"]
     runs = [{k: data[k] for k in ("command", "commit", "dirty", "note")}]
@@ -491,7 +489,7 @@ def main(argv: list[str] | None = None) -> None:
     }
 
     def save(rows: list[dict], seconds: dict[str, float]) -> None:
-        io.write_csv(out, order(pd.DataFrame(rows, columns=COLUMNS), study_runs(study)))
+        io.write_csv(out, order(pd.DataFrame(rows, columns=COLUMNS)))
         meta["seconds"] = {k: round(v, 1) for k, v in seconds.items()}
         with io.atomic_path(out.with_suffix(".json")) as tmp_path:
             tmp_path.write_text(json.dumps(meta, indent=2) + "\n")

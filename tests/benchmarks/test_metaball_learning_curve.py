@@ -107,7 +107,7 @@ def test_runs_give_one_row_per_measurement_and_merge_into_the_study(tiny, tmp_pa
     assert list(table.columns) == curve.COLUMNS
     keys = ["examples", "epochs", "model", "metric"]
     assert not table.duplicated(keys).any()
-    # the baseline once, first, then the runs in the study's order (4x1 before 8x1)
+    # the baseline once, first, then the runs by examples and epochs
     runs = table[["examples", "epochs", "model"]].drop_duplicates().values.tolist()
     assert runs == [[0, 0, "isolated spheres"], [4, 1, "pix2pix"], [8, 1, "pix2pix"]]
     # each run's values are its evaluation's metrics.csv, the baseline's too
@@ -136,7 +136,7 @@ def test_runs_give_one_row_per_measurement_and_merge_into_the_study(tiny, tmp_pa
     merged = pd.read_csv(out)
     assert not merged.duplicated(keys).any()
     runs = merged[["examples", "epochs"]].drop_duplicates().values.tolist()
-    assert runs == [[0, 0], [4, 1], [8, 1], [4, 2]]  # baseline, examples sweep, epochs sweep
+    assert runs == [[0, 0], [4, 1], [4, 2], [8, 1]]
     base = table[table.model == "isolated spheres"]
     parts = [base, table[table.model == "pix2pix"], pd.read_csv(second).query("examples > 0")]
     assert len(merged) == sum(len(p) for p in parts)
@@ -163,11 +163,10 @@ def _rows(examples, epochs, model, values):
 
 
 def test_a_merge_refuses_disagreeing_baselines_and_a_run_twice():
-    runs = [curve.Run(4, 1), curve.Run(8, 1)]
     base = _rows(0, 0, "isolated spheres", {"iou_depth": 0.5})
     mine = _rows(4, 1, "pix2pix", {"iou_depth": 0.6})
     other = _rows(8, 1, "pix2pix", {"iou_depth": 0.7})
-    merged = curve.merge_tables([pd.concat([base, other]), pd.concat([base, mine])], runs)
+    merged = curve.merge_tables([pd.concat([base, other]), pd.concat([base, mine])])
     assert merged[["examples", "model"]].values.tolist() == [
         [0, "isolated spheres"],
         [4, "pix2pix"],
@@ -175,9 +174,9 @@ def test_a_merge_refuses_disagreeing_baselines_and_a_run_twice():
     ]
     moved = base.assign(value=0.51)
     with pytest.raises(ValueError, match="isolated spheres rows differ"):
-        curve.merge_tables([pd.concat([base, mine]), pd.concat([moved, other])], runs)
+        curve.merge_tables([pd.concat([base, mine]), pd.concat([moved, other])])
     with pytest.raises(ValueError, match=r"runs \['4x1'\] are in more than one table"):
-        curve.merge_tables([pd.concat([base, mine]), pd.concat([base, mine])], runs)
+        curve.merge_tables([pd.concat([base, mine]), pd.concat([base, mine])])
 
 
 def test_beats_compares_each_metric_in_its_direction():
