@@ -97,11 +97,12 @@ class Run:
 
 
 def study_runs(study: Mapping[str, Any]) -> list[Run]:
-    """Every run of the study, each once: the examples sweep (at its epochs), then the
-    epochs sweep (at its examples)."""
+    """Every run of the study, each once: the examples sweep (at its epochs), the epochs
+    sweep (at its examples), then the runs of ``both`` (``EXAMPLESxEPOCHS``, if any)."""
     by_examples, by_epochs = study["examples"], study["epochs"]
     runs = [Run(n, by_examples["epochs"]) for n in by_examples["examples"]]
     runs += [Run(by_epochs["examples"], e) for e in by_epochs["epochs"]]
+    runs += [Run.parse(text) for text in study.get("both", [])]
     return list(dict.fromkeys(runs))
 
 

@@ -36,7 +36,18 @@ def test_the_committed_study_trains_each_run_once_at_the_default_configs_setting
     study = yaml.safe_load((ROOT / "config/studies/metaballs_learning_curve.yaml").read_text())
     runs = curve.study_runs(study)
     labels = [r.label for r in runs]
-    assert labels == ["600x2", "1200x2", "2400x2", "4800x2", "1200x1", "1200x4", "1200x8"]
+    assert labels == [
+        "600x2",
+        "1200x2",
+        "2400x2",
+        "4800x2",
+        "9600x2",
+        "1200x1",
+        "1200x4",
+        "1200x8",
+        "1200x16",
+        "4800x8",
+    ]
     config = curve.pipeline_config([])
     # the default run's pix2pix: only the epochs change from run to run
     params = curve.train_params(config, "pix2pix", 8)
