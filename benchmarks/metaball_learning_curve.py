@@ -27,9 +27,10 @@ Three steps:
   job (rows with 0 examples and 0 epochs). Writes a tidy CSV (``examples, epochs, model,
   metric, value, train_seconds``) and its sidecar ``.json`` (command, commit, budget,
   seconds) after each run.
-* ``merge``: one CSV and sidecar from the runs' (split over processes side by side): the
-  isolated spheres' rows kept once (refused if the runs disagree), every run once, the
-  rows by examples and epochs; and the figure (``.png`` beside the CSV).
+* ``merge``: one CSV and sidecar from the runs' (split over processes side by side, or
+  an earlier merge's CSV that later runs extend): the isolated spheres' rows kept once
+  (refused if the runs disagree), every run once, the rows by examples and epochs; and the
+  figure (``.png`` beside the CSV).
 """
 
 from __future__ import annotations
@@ -358,46 +359,74 @@ def beats(table: pd.DataFrame, variant: str) -> pd.DataFrame:
 
 def figure(table: pd.DataFrame, study: Mapping, variant: str, path: Path) -> None:
     """Each :data:`SHOWN` metric of ``variant`` against the examples (top row, at the
-    examples sweep's epochs) and against the epochs (bottom row, at the epochs sweep's
-    examples), the isolated spheres as a dashed line."""
+    examples sweep's epochs), against the epochs (middle row, at the epochs sweep's
+    examples) and against examples x epochs (bottom row: both sweeps and the runs off
+    them, labelled), the isolated spheres as a dashed line."""
     from neurender.plots import plt, save_figure
 
     base = table[table["model"] == BASELINE].set_index("metric")["value"]
-    mine = table[table["model"] == variant]
-    sweeps = [
-        ("examples", "epochs", study["examples"]["epochs"], "training examples"),
-        ("epochs", "examples", study["epochs"]["examples"], "epochs"),
+    mine = table[table["model"] == variant].assign(budget=lambda t: t["examples"] * t["epochs"])
+    at_epochs, at_examples = study["examples"]["epochs"], study["epochs"]["examples"]
+    by_examples = mine[mine["epochs"] == at_epochs]
+    by_epochs = mine[mine["examples"] == at_examples]
+    off = mine[(mine["epochs"] != at_epochs) & (mine["examples"] != at_examples)]
+    rows = [
+        ("examples", [(by_examples, "o-", variant)], f"training examples (epochs {at_epochs})"),
+        ("epochs", [(by_epochs, "o-", variant)], f"epochs (examples {at_examples})"),
+        (
+            "budget",
+            [
+                (by_examples, "o-", f"more examples (epochs {at_epochs})"),
+                (by_epochs, "s-", f"more epochs (examples {at_examples})"),
+                (off, "*", "both (labelled)"),
+            ],
+            "examples x epochs",
+        ),
     ]
-    fig, axes = plt.subplots(2, len(SHOWN), figsize=(3.0 * len(SHOWN), 5.6), squeeze=False)
-    for row, (x, fixed, at, label) in enumerate(sweeps):
-        part = mine[mine[fixed] == at]
+    fig, axes = plt.subplots(3, len(SHOWN), figsize=(3.0 * len(SHOWN), 8.4), squeeze=False)
+    for row, (x, lines, label) in enumerate(rows):
         for col, (metric, higher) in enumerate(SHOWN.items()):
             ax = axes[row, col]
-            values = part[part["metric"] == metric].sort_values(x)
-            ax.plot(values[x], values["value"], "o-", label=variant)
+            ticks = set()
+            for part, style, name in lines:
+                values = part[part["metric"] == metric].sort_values(x)
+                ax.plot(values[x], values["value"], style, label=name, markersize=5)
+                ticks |= set(values[x])
+                for _, point in values.iterrows() if style == "*" else ():
+                    run = f"{point['examples']}x{point['epochs']}"
+                    ax.annotate(run, (point[x], point["value"]), fontsize=7)
             ax.axhline(base[metric], color="grey", linestyle="--", label=BASELINE)
             ax.set_xscale("log", base=2)
-            ax.set_xticks(values[x].tolist(), [str(v) for v in values[x]])
+            ticks = sorted(ticks)
+            ax.set_xticks(ticks, [str(v) for v in ticks], rotation=45 if x == "budget" else 0)
             ax.minorticks_off()
-            ax.set_xlabel(f"{label} ({fixed} {at})")
+            ax.set_xlabel(label)
             if row == 0:
                 ax.set_title(f"{metric}\n({'higher' if higher else 'lower'} is better)", fontsize=9)
-            ax.tick_params(labelsize=8)
-    axes[0, 0].legend(fontsize=8)
+            ax.tick_params(labelsize=7)
+    axes[0, 0].legend(fontsize=7)
+    axes[2, 0].legend(fontsize=7)
     fig.suptitle(f"{variant} against the isolated spheres on the test scenes", fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)
 
 
 def merge(csvs: list[str], out: Path, study_path: Path, note: str | None) -> None:
-    """One CSV, sidecar and figure of several runs' (``csvs`` and their sidecars)."""
+    """One CSV, sidecar and figure of several runs' (``csvs`` and their sidecars; a CSV
+    may be an earlier merge's, whose sidecar lists its steps): the sidecar lists each data
+    step once, before the runs that read it."""
     study = io.read_yaml(study_path)
     records = [json.loads(Path(csv).with_suffix(".json").read_text()) for csv in csvs]
     table = merge_tables([pd.read_csv(csv) for csv in csvs])
     io.write_csv(out, table)
-    data = records[0]["data"]
-    runs = [{k: data[k] for k in ("command", "commit", "dirty", "note")}]
-    runs += [{k: v for k, v in r.items() if k != "data"} for r in records]
+    runs = []
+    for record in records:
+        if "runs" in record:  # an earlier merge's: its steps as they were
+            runs += [r for r in record["runs"] if r not in runs]
+            continue
+        data = {k: record["data"][k] for k in ("command", "commit", "dirty", "note")}
+        runs += [data] if data not in runs else []
+        runs.append({k: v for k, v in record.items() if k != "data"})
     note = note or (
         "The data step made the examples once; the runs' processes ran side by side, one "
         "torch thread each, niced, on the shared 2-core machine (their commands say the "

@@ -161,6 +161,19 @@ def test_runs_give_one_row_per_measurement_and_merge_into_the_study(tiny, tmp_pa
     verdict = curve.beats(merged, "pix2pix")
     assert len(verdict) == 3 * len(curve.SHOWN) and verdict["better"].dtype == bool
 
+    # a later run extends the merged study: its steps kept, the data step listed once
+    third = tmp_path / "c.csv"
+    curve.main(["run", *data, *common, "--runs", "8x2", "--out", str(third)])
+    again = tmp_path / "again.csv"
+    curve.main(["merge", str(out), str(third), *study, "--out", str(again)])
+    extended = pd.read_csv(again)
+    runs = extended[["examples", "epochs"]].drop_duplicates().values.tolist()
+    assert runs == [[0, 0], [4, 1], [4, 2], [8, 1], [8, 2]]
+    pd.testing.assert_frame_equal(extended.query("not (examples == 8 and epochs == 2)"), merged)
+    later = json.loads(again.with_suffix(".json").read_text())["runs"]
+    assert later[:3] == record["runs"] and len(later) == 4
+    assert "--runs 8x2" in later[3]["command"]
+
 
 def _rows(examples, epochs, model, values):
     return pd.DataFrame(
