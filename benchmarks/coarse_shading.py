@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import sys
 from pathlib import Path
 
@@ -161,7 +160,7 @@ def main() -> None:
                 print(accuracy[-1], flush=True)
     io.write_csv(Path(f"{out}_accuracy.csv"), pd.DataFrame(accuracy))
     for name in (f"{out}.json", f"{out}_accuracy.json"):
-        Path(name).write_text(json.dumps(sidecar, indent=2) + "\n")
+        io.write_json(name, sidecar)
 
 
 if __name__ == "__main__":

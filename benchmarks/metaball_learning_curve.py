@@ -433,8 +433,7 @@ def merge(csvs: list[str], out: Path, study_path: Path, note: str | None) -> Non
         "nice), then merged by 'python benchmarks/metaball_learning_curve.py merge'. "
         "Seconds are wall times under that sharing."
     )
-    with io.atomic_path(out.with_suffix(".json")) as tmp:
-        tmp.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
+    io.write_json(out.with_suffix(".json"), {"note": note, "runs": runs})
     figure(table, study, study["variant"], out.with_suffix(".png"))
     verdict = beats(table, study["variant"])
     print(verdict.to_string(), flush=True)
@@ -493,8 +492,7 @@ def main(argv: list[str] | None = None) -> None:
         record |= make_data(config, study, root, args.workers)
         seconds = time.perf_counter() - start
         record["note"] += f"; {seconds:.0f} s with {args.workers} example processes"
-        with io.atomic_path(root / "data.json") as tmp:
-            tmp.write_text(json.dumps(record, indent=2) + "\n")
+        io.write_json(root / "data.json", record)
         return
     runs = args.runs or study_runs(study)
     data = check_data(config, root, runs)
@@ -521,8 +519,7 @@ def main(argv: list[str] | None = None) -> None:
     def save(rows: list[dict], seconds: dict[str, float]) -> None:
         io.write_csv(out, order(pd.DataFrame(rows, columns=COLUMNS)))
         meta["seconds"] = {k: round(v, 1) for k, v in seconds.items()}
-        with io.atomic_path(out.with_suffix(".json")) as tmp_path:
-            tmp_path.write_text(json.dumps(meta, indent=2) + "\n")
+        io.write_json(out.with_suffix(".json"), meta)
 
     run_study(config, variant, runs, root, work, save)
 

@@ -9,7 +9,6 @@ python benchmarks/metaball_scale.py /path/to/study/checkout \\
 """
 
 import argparse
-import json
 from pathlib import Path
 
 from neurender import io
@@ -45,8 +44,7 @@ def main() -> None:
             raise SystemExit(f"{path}: missing; run the study's command first")
         io.copy_file(path, args.out / name)
         if name.endswith(".csv"):
-            with io.atomic_path(args.out / Path(name).with_suffix(".json")) as tmp:
-                tmp.write_text(json.dumps({"runs": [record]}, indent=2) + "\n")
+            io.write_json(args.out / Path(name).with_suffix(".json"), {"runs": [record]})
 
 
 if __name__ == "__main__":

@@ -106,8 +106,7 @@ def main() -> None:
         "runs": new_runs,
         "merged_by": merged_by,
     }
-    with io.atomic_path(args.out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(args.out.with_suffix(".json"), sidecar)
 
 
 if __name__ == "__main__":

@@ -218,8 +218,7 @@ def merge(parts: list[str], out: Path) -> None:
         "thread at nice 10 on the shared 2-core machine; merged with --merge. Seconds are "
         "wall seconds under that sharing."
     )
-    with io.atomic_path(out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
+    io.write_json(out.with_suffix(".json"), {"note": note, "runs": runs})
 
 
 def main() -> None:
@@ -293,8 +292,7 @@ def write_sidecar(out: Path, state, started, epochs, config, cfg, names) -> None
             n: {**dataclasses.asdict(STUDY[n][0]), "overrides": STUDY[n][1]} for n in names
         },
     }
-    with io.atomic_path(out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(out.with_suffix(".json"), sidecar)
 
 
 if __name__ == "__main__":

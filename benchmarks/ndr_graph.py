@@ -24,7 +24,6 @@ rounds), and the check's largest difference (for int8, from the float32 graph's 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 from pathlib import Path
@@ -143,7 +142,7 @@ def main() -> None:
                 )
                 print(rows[-1], flush=True)
     io.write_csv(Path(args.out).with_suffix(".csv"), pd.DataFrame(rows))
-    Path(f"{args.out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(f"{args.out}.json", sidecar)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -82,8 +81,7 @@ def main() -> None:
         ],
         "merged_by": "python benchmarks/prt_correction_runs.py " + " ".join(sys.argv[1:]),
     }
-    with io.atomic_path(args.out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(args.out.with_suffix(".json"), sidecar)
 
 
 if __name__ == "__main__":

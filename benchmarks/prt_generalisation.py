@@ -163,8 +163,7 @@ def merge(csvs: list[str], out: Path, note: str | None = None) -> None:
         "nice), merged with --merge. Seconds and milliseconds are wall times under that "
         "sharing."
     )
-    with io.atomic_path(out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps({"note": note, "runs": runs}, indent=2) + "\n")
+    io.write_json(out.with_suffix(".json"), {"note": note, "runs": runs})
 
 
 @dataclasses.dataclass(frozen=True)
@@ -561,8 +560,7 @@ def write_sidecar(out, args, commit, config, shadowing_cfg, study, runs, seconds
         "seconds": {k: round(v, 1) for k, v in seconds.items()},
         "torch_threads": 1,
     }
-    with io.atomic_path(out.with_suffix(".json")) as tmp_path:
-        tmp_path.write_text(json.dumps(meta, indent=2, default=list) + "\n")
+    io.write_json(out.with_suffix(".json"), meta, default=list)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,6 @@ command, commit and hardware.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 from pathlib import Path
@@ -132,7 +131,7 @@ def main() -> None:
                     rows.append({"material": material, **row})
                     print(rows[-1], flush=True)
     io.write_csv(Path(args.out).with_suffix(".csv"), pd.DataFrame(rows))
-    Path(f"{args.out}.json").write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(f"{args.out}.json", sidecar)
 
 
 if __name__ == "__main__":

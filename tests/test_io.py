@@ -1,3 +1,4 @@
+import json
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,21 @@ def test_atomic_write_gives_the_mode_of_a_plain_open(tmp_path):
     (tmp_path / "plain.txt").write_text("x")
     modes = {p.name: p.stat().st_mode & 0o777 for p in tmp_path.iterdir()}
     assert modes["atomic.txt"] == modes["plain.txt"]
+
+
+def test_write_json_round_trips_ends_in_a_newline_and_leaves_nothing_it_cannot_write(tmp_path):
+    data = {"b": [1, 2.5, None], "a": {"note": "ü"}}
+    io.write_json(tmp_path / "sidecar.json", data)
+    text = (tmp_path / "sidecar.json").read_text()
+    assert json.loads(text) == data and text.endswith("}\n") and '\n  "b"' in text
+    io.write_json(tmp_path / "sorted.json", data, indent=None, sort_keys=True)
+    assert (tmp_path / "sorted.json").read_text() == json.dumps(data, sort_keys=True) + "\n"
+    io.write_json(tmp_path / "sets.json", {"s": {3}}, default=list)
+    assert json.loads((tmp_path / "sets.json").read_text()) == {"s": [3]}
+    before = sorted(tmp_path.iterdir())
+    with pytest.raises(TypeError):
+        io.write_json(tmp_path / "bad.json", {"s": {3}})
+    assert sorted(tmp_path.iterdir()) == before
 
 
 def test_csv_round_trip_and_required_columns(tmp_path):

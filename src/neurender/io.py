@@ -84,6 +84,15 @@ def atomic_path(path: PathLike) -> Iterator[Path]:
         tmp_path.unlink(missing_ok=True)
 
 
+def write_json(path: PathLike, data: Any, indent: int | None = 2, **dumps: Any) -> None:
+    """``data`` as JSON at ``path`` (``indent`` spaces, a final newline), atomically;
+    ``dumps`` go to :func:`json.dumps` (``sort_keys``, ``default``). Serialised before
+    the file is opened, so data that cannot be written leaves no file."""
+    text = json.dumps(data, indent=indent, **dumps) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
 def _require_file(path: PathLike, what: str) -> Path:
     """``path`` as a Path; ``FileNotFoundError`` naming it and why when it is not a
     regular file (missing, a directory, a FIFO...)."""

@@ -144,8 +144,7 @@ def write_study_sidecar(
         "machine": machine(cores),
         **extra,
     }
-    with io.atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(sidecar, indent=2) + "\n")
+    io.write_json(path, sidecar)
 
 
 def gpus() -> list[dict[str, str]]:
@@ -167,8 +166,7 @@ def gpus() -> list[dict[str, str]]:
 def mark_start(path: str | Path, cores: int | None) -> None:
     """Write the start of a run (:func:`now`) and its Snakemake ``cores`` to ``path`` as
     JSON (the ``onstart`` hook)."""
-    with io.atomic_path(path) as tmp:
-        tmp.write_text(json.dumps({"started": now(), "snakemake_cores": cores}) + "\n")
+    io.write_json(path, {"started": now(), "snakemake_cores": cores}, indent=None)
 
 
 def read_start(path: str | Path) -> dict[str, Any]:
@@ -204,8 +202,7 @@ def collect(
 
 def write(path: str | Path, record: Mapping[str, Any]) -> None:
     """``record`` as indented JSON at ``path`` (atomically)."""
-    with io.atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    io.write_json(path, record, indent=1, sort_keys=True)
 
 
 def read(path: str | Path) -> dict[str, Any]:

@@ -25,7 +25,6 @@ Without the ``tensorboard`` package training runs as before, with one warning.
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -184,5 +183,4 @@ class TrainingLog:
             "scalars": sorted(self.tags),
             "tensorboard": written,
         }
-        with io.atomic_path(self.marker) as tmp:
-            tmp.write_text(json.dumps(summary, indent=1) + "\n")
+        io.write_json(self.marker, summary, indent=1)

@@ -1,6 +1,5 @@
 """benchmarks/default_run.py: a run's headline rows and targets, as the report shows them."""
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -9,10 +8,9 @@ import pytest
 
 from neurender import methods
 
-ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("default_run", ROOT / "benchmarks/default_run.py")
-default_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(default_run)
+from . import scripts
+
+default_run = scripts.load("default_run")
 
 
 @pytest.fixture

@@ -1,16 +1,13 @@
 """benchmarks/job_stages.py: profiles of jobs by stage, beside their benchmark's wall time."""
 
 import cProfile
-import importlib.util
 import time
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("job_stages", ROOT / "benchmarks/job_stages.py")
-job_stages = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(job_stages)
+from . import scripts
+
+job_stages = scripts.load("job_stages")
 
 HEADER = "s\th:m:s\tmax_rss\tmax_vms\tmax_uss\tmax_pss\tio_in\tio_out\tmean_load\tcpu_time\n"
 

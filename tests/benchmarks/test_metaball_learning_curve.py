@@ -1,9 +1,7 @@
 """The metaballs' learning-curve study (benchmarks/metaball_learning_curve.py) on tiny data:
 its runs, its prefix of the largest train split, its rows and its merge."""
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -12,13 +10,10 @@ import yaml
 
 from neurender.metaballs import jobs
 
+from . import scripts
+
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location(
-    "metaball_learning_curve", ROOT / "benchmarks/metaball_learning_curve.py"
-)
-curve = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = curve  # its dataclasses look their module up there
-_spec.loader.exec_module(curve)
+curve = scripts.load("metaball_learning_curve")
 
 TINY_CONFIG = {
     "device": "cpu",

@@ -1,6 +1,5 @@
 """Merging DeepPRT model-stage runs (benchmarks/prt_correction_runs.py)."""
 
-import importlib.util
 from pathlib import Path
 
 import pandas as pd
@@ -8,12 +7,9 @@ import pytest
 
 from neurender import io
 
-ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location(
-    "prt_correction_runs", ROOT / "benchmarks/prt_correction_runs.py"
-)
-runs_script = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(runs_script)
+from . import scripts
+
+runs_script = scripts.load("prt_correction_runs")
 
 
 def _results(folder: Path, offset: float) -> Path:

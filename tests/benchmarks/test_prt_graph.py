@@ -1,17 +1,13 @@
 """The parts of the shipped shadowing graph that benchmarks/prt_graph.py times."""
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 import torch
 
 from neurender.prt.local_model import correction_gate
 
-ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("prt_graph", ROOT / "benchmarks/prt_graph.py")
-graph_script = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(graph_script)
+from . import scripts
+
+graph_script = scripts.load("prt_graph")
 
 
 def test_frame_normals_are_unit_and_orthogonal_to_the_surface():

@@ -1,8 +1,6 @@
 """The learning-curve study's budgets (benchmarks/prt_generalisation.py --study)."""
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,13 +9,10 @@ import yaml
 
 from neurender.prt import frames
 
+from . import scripts
+
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location(
-    "prt_generalisation", ROOT / "benchmarks/prt_generalisation.py"
-)
-study_script = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = study_script  # its dataclasses look their module up there
-_spec.loader.exec_module(study_script)
+study_script = scripts.load("prt_generalisation")
 
 
 def _steps(run, batch_size):

@@ -1,17 +1,15 @@
 """benchmarks/run_profile.py: jobs' figures read from Snakemake's benchmark files, the
 whole run's from /usr/bin/time -v, summed by stage."""
 
-import importlib.util
 import json
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("run_profile", ROOT / "benchmarks/run_profile.py")
-profile = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(profile)
+from . import scripts
+
+profile = scripts.load("run_profile")
 
 HEADER = "s\th:m:s\tmax_rss\tmax_vms\tmax_uss\tmax_pss\tio_in\tio_out\tmean_load\tcpu_time\n"
 TIME_REPORT = """\tCommand being timed: "snakemake --cores 2 results/report.html"
