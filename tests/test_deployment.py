@@ -14,6 +14,7 @@ from neurender.deployment import (
     measure,
     onnx_check_error,
     read_deployment,
+    shipped_network,
 )
 from neurender.nn.inference import OnnxNetwork, onnx_metadata
 
@@ -59,6 +60,8 @@ def test_a_file_that_export_onnx_did_not_check_is_refused(tmp_path):
     onnx.save(helper.make_model(graph), tmp_path / "unchecked.onnx")
     with pytest.raises(ValueError, match="unchecked.onnx"):
         onnx_check_error(tmp_path / "unchecked.onnx")
+    with pytest.raises(ValueError, match=r"unchecked.onnx names no neurender.method"):
+        shipped_network(tmp_path / "unchecked.onnx")
 
 
 def test_measure_exports_a_checked_file_and_times_both_engines(tmp_path):
@@ -70,6 +73,7 @@ def test_measure_exports_a_checked_file_and_times_both_engines(tmp_path):
     assert list(row) == list(COLUMNS) and (row["method"], row["network"]) == ("toy", "conv")
     assert row["resolution"] == "10x6" and row["parameters"] == 3 * 4 * 9 + 4
     assert row["onnx_bytes"] == out.stat().st_size and row["onnx_file"] == str(out)
+    assert shipped_network(out) == ("toy", "conv")
     stored = float(onnx_metadata(out)["neurender.max_abs_diff_vs_pytorch"])
     assert row["max_abs_diff_vs_pytorch"] == pytest.approx(stored, rel=1e-2, abs=1e-12)
     assert row["onnxruntime_ms_per_frame"] > 0 and row["pytorch_ms_per_frame"] > 0

@@ -51,6 +51,24 @@ COLUMNS = (
 )
 
 
+#: The metadata keys of a shipped graph (:func:`measure`) that name what it is.
+METHOD_KEY, NETWORK_KEY = "neurender.method", "neurender.network"
+
+
+def shipped_network(path: str | Path) -> tuple[str, str]:
+    """The method and network a shipped graph (written by :func:`measure`) says it is;
+    ``ValueError`` naming the file when it does not say."""
+    from neurender.nn.inference import onnx_metadata
+
+    metadata = onnx_metadata(path)
+    if METHOD_KEY not in metadata or NETWORK_KEY not in metadata:
+        raise ValueError(
+            f"ONNX file {path} names no {METHOD_KEY} and {NETWORK_KEY} in its metadata: "
+            "expected a graph shipped by neurender.deployment.measure (rerun its deploy rule)"
+        )
+    return metadata[METHOD_KEY], metadata[NETWORK_KEY]
+
+
 def onnx_check_error(path: str | Path) -> float:
     """The largest |ONNX Runtime - PyTorch| of the export's check, stored in the metadata
     of an ONNX file written by :func:`neurender.nn.inference.export_onnx`."""
@@ -120,13 +138,17 @@ def measure(
     its normalisation): exported to ``onnx_out`` and checked on ``examples`` (each input
     ``(B >= 2, C, H, W)``, named ``input_names``; allowed difference ``atol + rtol *
     max|y|``, :func:`neurender.nn.inference.export_onnx`), then both engines timed on the
-    first example on the CPU with ``threads`` threads."""
+    first example on the CPU with ``threads`` threads. The file names its ``method`` and
+    ``network`` in its metadata (:func:`shipped_network`)."""
     # torch here, so that the jobs that only read or write the table never load it
     from neurender.nn.inference import engine_milliseconds, export_onnx
     from neurender.nn.unet import count_parameters
     from neurender.timing import hardware
 
-    error = export_onnx(graph, examples, onnx_out, atol=atol, input_names=input_names, rtol=rtol)
+    names = {METHOD_KEY: method, NETWORK_KEY: network}
+    error = export_onnx(
+        graph, examples, onnx_out, atol=atol, input_names=input_names, rtol=rtol, metadata=names
+    )
     ms = engine_milliseconds(graph, onnx_out, tuple(x[:1] for x in examples), threads)
     size = tuple(examples[0].shape[-2:])
     where = hardware(threads, "cpu")

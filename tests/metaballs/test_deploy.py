@@ -7,7 +7,7 @@ import pytest
 import torch
 from PIL import Image
 
-from neurender.deployment import COLUMNS, read_deployment
+from neurender.deployment import COLUMNS, read_deployment, shipped_network
 from neurender.metaballs import VARIANTS, jobs, scenes
 from neurender.metaballs.renderer import MetaballRenderer
 from neurender.nn.inference import OnnxNetwork
@@ -67,7 +67,7 @@ def test_the_file_renders_what_the_renderer_renders_on_fresh_scenes(deployed, va
     assert not np.allclose(got[0], got[1], atol=1e-3)  # the images differ
 
 
-def test_a_cpu_renderer_given_its_shipped_graph_runs_that_graph(deployed):
+def test_a_cpu_renderer_given_its_shipped_graph_runs_that_graph_and_no_other(deployed):
     inputs, outputs = deployed
     gen = torch.Generator().manual_seed(3)
     scene = scenes.sample_scene(4, (1.0, 2.0), gen).to(torch.float32)
@@ -77,11 +77,12 @@ def test_a_cpu_renderer_given_its_shipped_graph_runs_that_graph(deployed):
         assert (in_torch.engine, shipped.engine) == ("pytorch", "onnxruntime")
         x = shipped.inputs(scene)[None]
         np.testing.assert_allclose(shipped(x).numpy(), in_torch(x).numpy(), atol=1e-4)
-    # the graph it was given is what runs: another variant's gives that variant's images
-    other = MetaballRenderer(inputs["checkpoints"][0], "cpu", onnx=outputs["onnx"][1])
-    x = other.inputs(scene)[None]
-    expected = MetaballRenderer(inputs["checkpoints"][1], "cpu")(x).numpy()
-    np.testing.assert_allclose(other(x).numpy(), expected, atol=1e-4)
+    # each graph names its variant, and a checkpoint refuses another variant's graph
+    assert [shipped_network(f) for f in outputs["onnx"]] == [("metaballs", v) for v in VARIANTS]
+    with pytest.raises(ValueError) as refused:
+        MetaballRenderer(inputs["checkpoints"][0], "cpu", onnx=outputs["onnx"][1])
+    for named in (outputs["onnx"][1], inputs["checkpoints"][0], VARIANTS[0], VARIANTS[1]):
+        assert str(named) in str(refused.value)
 
 
 def test_the_demo_times_every_network_against_ray_marching_and_draws_its_figures(

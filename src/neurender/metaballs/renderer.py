@@ -7,6 +7,7 @@ from pathlib import Path
 import torch
 
 from neurender import train
+from neurender.deployment import shipped_network
 from neurender.devices import resolve_device
 from neurender.metaball import Scene
 from neurender.metaballs.model import build_generator, network_inputs
@@ -50,6 +51,12 @@ class MetaballRenderer:
             for module in self.model.modules():
                 if isinstance(module, torch.nn.BatchNorm2d):
                     module.train()
+        if onnx is not None and shipped_network(onnx) != ("metaballs", self.variant):
+            method, network = shipped_network(onnx)
+            raise ValueError(
+                f"{onnx} is the graph of {method} {network!r}; checkpoint {checkpoint} is "
+                f"metaballs {self.variant!r}: expected each checkpoint with its own graph"
+            )
         shipped = onnx is not None and self.device.type == "cpu"
         # Not spinning: a frame runs PyTorch (inputs, shading) on the same cores right after.
         self.graph = OnnxNetwork(onnx, threads, spinning=False) if shipped else None
@@ -86,7 +93,8 @@ def load_renderers(
     checkpoints: list[str], device: str, threads: int, onnx: list[str] | None = None
 ) -> dict[str, MetaballRenderer]:
     """Variant name (the one each checkpoint was trained as) to its renderer, in the order
-    of ``checkpoints`` (and, if given, their shipped graphs ``onnx``, same order)."""
+    of ``checkpoints`` (and, if given, their shipped graphs ``onnx``, same order: each
+    renderer refuses a graph that names another variant)."""
     graphs = [None] * len(checkpoints) if onnx is None else onnx
     renderers = [
         MetaballRenderer(path, device, threads, graph)

@@ -95,6 +95,7 @@ def export_onnx(
     input_names: tuple[str, ...] = ("x",),
     rtol: float = 0.0,
     dynamic_axes: Mapping[str, Mapping[int, str]] | None = None,
+    metadata: Mapping[str, str] | None = None,
 ) -> float:
     """Write an eval-mode CPU ``model`` as an ONNX graph with a dynamic batch axis.
 
@@ -105,8 +106,8 @@ def export_onnx(
     ONNX Runtime runs it on ``example`` and a ``ValueError`` is raised if any output
     differs from PyTorch's by more than ``atol + rtol * max|y|`` (``rtol`` for outputs in
     physical units, e.g. HDR radiance, whose float32 rounding grows with their magnitude);
-    the difference is stored in the file's metadata (``neurender.max_abs_diff_vs_pytorch``)
-    and returned.
+    the difference is stored in the file's metadata (``neurender.max_abs_diff_vs_pytorch``,
+    beside ``metadata``'s keys, e.g. which network the graph is) and returned.
 
     The graph is traced by torch's TorchScript-based exporter (``dynamo=False``): for our
     networks it writes the same graph as the ``torch.export``-based one, which ONNX Runtime
@@ -152,7 +153,7 @@ def export_onnx(
                 f"{path}: ONNX Runtime differs from PyTorch by {error:.3g} (> {allowed:.3g}: "
                 f"atol {atol} + rtol {rtol} x max|y| {np.abs(expected).max():.3g})"
             )
-        _finish(tmp, {"neurender.max_abs_diff_vs_pytorch": f"{error:.3g}"})
+        _finish(tmp, {"neurender.max_abs_diff_vs_pytorch": f"{error:.3g}", **(metadata or {})})
     log.info("exported %s (max |ONNX - PyTorch| = %.2g)", path, error)
     return error
 
