@@ -191,6 +191,10 @@ def test_a_merge_refuses_disagreeing_baselines_and_a_run_twice():
         [4, "pix2pix"],
         [8, "pix2pix"],
     ]
+    # the first table's baseline is kept when another's differs by float rounding only
+    rounded = base.assign(value=0.5 * (1 + 1e-6))
+    kept = curve.merge_tables([pd.concat([base, mine]), pd.concat([rounded, other])])
+    assert kept.query("examples == 0")["value"].tolist() == [0.5]
     moved = base.assign(value=0.51)
     with pytest.raises(ValueError, match="isolated spheres rows differ"):
         curve.merge_tables([pd.concat([base, mine]), pd.concat([moved, other])])

@@ -191,7 +191,7 @@ STUDIES = (
         title="Learning curve: pix2pix (the thesis) against the training examples",
         description=(
             "pix2pix from the circle image (the thesis's network) trained from scratch for 2 "
-            "epochs on 600, 1,200, 2,400 and 4,800 thesis scenes (four mirrorings per "
+            "epochs on 600, 1,200, 2,400, 4,800 and 9,600 thesis scenes (four mirrorings per "
             "example and epoch, a cosine schedule per run; every other setting the default "
             "config's: 128 px, 16-filter generator and discriminator, lr 5e-4, batch 4, one "
             "thread), scored on the 300 test scenes beside the isolated spheres (0 examples, "
@@ -207,10 +207,26 @@ STUDIES = (
         title="Learning curve: pix2pix (the thesis) against the epochs",
         description=(
             "The same network and settings on the default config's 1,200 examples for 1, "
-            "2, 4 and 8 epochs, each run from scratch with its own cosine schedule (the "
+            "2, 4, 8 and 16 epochs, each run from scratch with its own cosine schedule (the "
             "1,200 x 2 run is the table above's)."
         ),
         query=f"(model == 'isolated spheres' or examples == 1200) and {_CURVE_METRICS}",
+        index=("model", "examples", "epochs"),
+        columns=("metric",),
+        digits=3,
+    ),
+    Study(
+        csv=LEARNING_CURVE_STUDY,
+        title="Learning curve: pix2pix (the thesis) at more examples and more epochs at once",
+        description=(
+            "The same network and settings on 4,800 examples for 8 epochs (16 times the "
+            "default run's training, as 9,600 x 2 and 1,200 x 16 above); the figure's "
+            "bottom row sets every run against examples x epochs."
+        ),
+        query=(
+            f"(model == 'isolated spheres' or (examples > 1200 and epochs > 2)) "
+            f"and {_CURVE_METRICS}"
+        ),
         index=("model", "examples", "epochs"),
         columns=("metric",),
         digits=3,
