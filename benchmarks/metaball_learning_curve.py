@@ -405,7 +405,14 @@ def figure(table: pd.DataFrame, study: Mapping, variant: str, path: Path) -> Non
                 ticks |= set(values[x])
                 for _, point in values.iterrows() if style == "*" else ():
                     run = f"{point['examples']}x{point['epochs']}"
-                    ax.annotate(run, (point[x], point["value"]), fontsize=7)
+                    ax.annotate(
+                        run,
+                        (point[x], point["value"]),
+                        xytext=(-4, 4),
+                        textcoords="offset points",
+                        ha="right",
+                        fontsize=7,
+                    )
             ax.axhline(base[metric], color="grey", linestyle="--", label=BASELINE)
             ax.set_xscale("log", base=2)
             ticks = sorted(ticks)

@@ -219,9 +219,10 @@ STUDIES = (
         csv=LEARNING_CURVE_STUDY,
         title="Learning curve: pix2pix (the thesis) at more examples and more epochs at once",
         description=(
-            "The same network and settings on 4,800 examples for 8 epochs (16 times the "
-            "default run's training, as 9,600 x 2 and 1,200 x 16 above); the figure's "
-            "bottom row sets every run against examples x epochs."
+            "The same network and settings on 4,800 examples for 8 epochs: 16 times the "
+            "default run's training (examples x epochs), twice that of 9,600 x 2 and of "
+            "1,200 x 16 above. The figure's bottom row sets every run against examples x "
+            "epochs."
         ),
         query=(
             f"(model == 'isolated spheres' or (examples > 1200 and epochs > 2)) "
