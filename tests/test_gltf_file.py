@@ -381,3 +381,25 @@ def test_texture_coordinates_not_one_per_vertex_are_an_error_naming_the_file(tmp
     with pytest.raises(AssetFileError, match=expected) as err:
         mesh_file.read(path, materials=True)
     assert str(path) in str(err.value)
+
+
+@pytest.mark.parametrize("value", [False, True, 0])
+def test_an_attribute_that_is_no_accessor_index_or_of_the_wrong_type_is_refused(tmp_path, value):
+    """``TEXCOORD_0: false`` (hypothesis found it: Python reads it as accessor 0) or the
+    POSITION accessor's index as TEXCOORD_0 would give trimesh positions as texture
+    coordinates; ``true`` reads as accessor 1, the indices'. Refused, naming the file and
+    the key, whether materials are read or not."""
+    tree = json.loads(_quad(tmp_path, _base({})).read_text())
+    tree["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = value
+    path = tmp_path / "edited.gltf"
+    path.write_text(json.dumps(tree))
+    key = "meshes[0].primitives[0].attributes.TEXCOORD_0"
+    expected = (
+        f"{key} = 0, an accessor of type 'VEC3'; expected VEC2 for TEXCOORD_0"
+        if not isinstance(value, bool)
+        else f"{key} = {json.dumps(value)}; expected an accessor's index"
+    )
+    for materials in (True, False):
+        with pytest.raises(AssetFileError) as err:
+            mesh_file.read(path, materials=materials)
+        assert str(err.value) == f"{path}: {expected}"

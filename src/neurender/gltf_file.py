@@ -122,6 +122,7 @@ def prepare(path: Path, materials: bool) -> bytes | None:
     if not isinstance(tree, dict) or not tree:
         return None  # unreadable: trimesh's error names it
     check_extensions(path, tree, materials)
+    check_attributes(path, tree)
     if not materials:
         return None
     rewritten = _with_coordinates(path, tree)
@@ -167,6 +168,46 @@ def check_extensions(path: Path, tree: dict, materials: bool = True) -> None:
             path,
             ", ".join(used),
         )
+
+
+#: The accessor type each vertex attribute must have (glTF 2.0, 3.7.2.1); others unchecked.
+_ATTRIBUTE_TYPES = {"POSITION": "VEC3", "NORMAL": "VEC3", "TEXCOORD_": "VEC2"}
+
+
+def check_attributes(path: Path, tree: dict) -> None:
+    """Refuse a primitive's vertex attribute that is not an accessor's index (a JSON
+    ``true``/``false`` would read as accessor 1/0 in Python) or whose accessor has the
+    wrong type for it (``POSITION``/``NORMAL`` ``VEC3``, ``TEXCOORD_n`` ``VEC2``): trimesh
+    would read such an attribute as it is, e.g. positions as texture coordinates. A
+    malformed structure is left to trimesh, whose error names the file.
+
+    Raises:
+        AssetFileError: naming the file, the mesh, primitive and attribute, and the value.
+    """
+    meshes, accessors = tree.get("meshes", []), tree.get("accessors", [])
+    if not isinstance(meshes, list) or not isinstance(accessors, list):
+        return
+    for m, mesh in enumerate(meshes):
+        primitives = mesh.get("primitives") if isinstance(mesh, dict) else None
+        for p, primitive in enumerate(primitives if isinstance(primitives, list) else []):
+            attributes = primitive.get("attributes") if isinstance(primitive, dict) else None
+            for name, index in (attributes if isinstance(attributes, dict) else {}).items():
+                key = f"meshes[{m}].primitives[{p}].attributes.{name}"
+                if isinstance(index, bool) or not isinstance(index, int):
+                    raise AssetFileError(
+                        f"{path}: {key} = {json.dumps(index)}; expected an accessor's index"
+                    )
+                if not 0 <= index < len(accessors) or not isinstance(accessors[index], dict):
+                    continue  # a broken reference: trimesh's error names the file
+                wanted = next(
+                    (t for prefix, t in _ATTRIBUTE_TYPES.items() if name.startswith(prefix)), None
+                )
+                found = accessors[index].get("type")
+                if wanted is not None and found != wanted:
+                    raise AssetFileError(
+                        f"{path}: {key} = {index}, an accessor of type {found!r}; expected "
+                        f"{wanted} for {name}"
+                    )
 
 
 def uv_transform(path: Path, label: str, info: dict) -> tuple[int, np.ndarray]:
