@@ -185,11 +185,26 @@ _CURVE_METRICS = (
     "'ssim_normal', 'l1_normal']"
 )
 
-STUDIES = (
-    Study(
+
+def _curve_study(title: str, description: str, runs: str, figures: tuple[str, ...] = ()) -> Study:
+    """A table of the learning-curve study: the isolated spheres and the pix2pix ``runs``
+    (a query over examples and epochs), the figure's metrics as columns."""
+    return Study(
         csv=LEARNING_CURVE_STUDY,
-        title="Learning curve: pix2pix (the thesis) against the training examples",
-        description=(
+        title=f"Learning curve: pix2pix (the thesis) {title}",
+        description=description,
+        query=f"(model == 'isolated spheres' or {runs}) and {_CURVE_METRICS}",
+        index=("model", "examples", "epochs"),
+        columns=("metric",),
+        digits=3,
+        figures=figures,
+    )
+
+
+STUDIES = (
+    _curve_study(
+        "against the training examples",
+        (
             "pix2pix from the circle image (the thesis's network) trained from scratch for 2 "
             "epochs on 600, 1,200, 2,400, 4,800 and 9,600 thesis scenes (four mirrorings per "
             "example and epoch, a cosine schedule per run; every other setting the default "
@@ -197,40 +212,26 @@ STUDIES = (
             "thread), scored on the 300 test scenes beside the isolated spheres (0 examples, "
             "0 epochs), which need no learning. The thesis trained on 20,000 examples."
         ),
-        query=f"(model == 'isolated spheres' or epochs == 2) and {_CURVE_METRICS}",
-        index=("model", "examples", "epochs"),
-        columns=("metric",),
-        digits=3,
+        "epochs == 2",
     ),
-    Study(
-        csv=LEARNING_CURVE_STUDY,
-        title="Learning curve: pix2pix (the thesis) against the epochs",
-        description=(
+    _curve_study(
+        "against the epochs",
+        (
             "The same network and settings on the default config's 1,200 examples for 1, "
             "2, 4, 8 and 16 epochs, each run from scratch with its own cosine schedule (the "
             "1,200 x 2 run is the table above's)."
         ),
-        query=f"(model == 'isolated spheres' or examples == 1200) and {_CURVE_METRICS}",
-        index=("model", "examples", "epochs"),
-        columns=("metric",),
-        digits=3,
+        "examples == 1200",
     ),
-    Study(
-        csv=LEARNING_CURVE_STUDY,
-        title="Learning curve: pix2pix (the thesis) at more examples and more epochs at once",
-        description=(
+    _curve_study(
+        "at more examples and more epochs at once",
+        (
             "The same network and settings on 4,800 examples for 8 epochs: 16 times the "
             "default run's training (examples x epochs), twice that of 9,600 x 2 and of "
             "1,200 x 16 above. The figure's bottom row sets every run against examples x "
             "epochs."
         ),
-        query=(
-            f"(model == 'isolated spheres' or (examples > 1200 and epochs > 2)) "
-            f"and {_CURVE_METRICS}"
-        ),
-        index=("model", "examples", "epochs"),
-        columns=("metric",),
-        digits=3,
+        "(examples > 1200 and epochs > 2)",
         figures=("benchmarks/results/metaball_learning_curve.png",),
     ),
     Study(
